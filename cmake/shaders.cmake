@@ -1,0 +1,28 @@
+# relief_add_shaders(TARGET file...): compiles each GLSL file to SPIR-V with glslangValidator
+# and wraps it as a C header (uint32_t array named after the file, dots -> underscores,
+# e.g. hello.tesc -> hello_tesc_spv). A shader that does not compile fails the build.
+# TARGET becomes an INTERFACE library whose include directory holds the headers, so no
+# shader file is ever looked up at run time.
+function(relief_add_shaders target)
+  set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/spv)
+  set(headers)
+  foreach(src ${ARGN})
+    get_filename_component(name ${src} NAME)
+    string(REPLACE "." "_" var ${name})
+    set(hdr ${out_dir}/${name}.spv.h)
+    add_custom_command(
+      OUTPUT ${hdr}
+      COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
+      COMMAND ${GLSLANG_VALIDATOR} -V --target-env vulkan1.1 --quiet
+              -I${CMAKE_CURRENT_SOURCE_DIR} --vn ${var}_spv -o ${hdr}
+              ${CMAKE_CURRENT_SOURCE_DIR}/${src}
+      DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${src}
+      COMMENT "glslang ${name}"
+      VERBATIM)
+    list(APPEND headers ${hdr})
+  endforeach()
+  add_custom_target(${target}_gen DEPENDS ${headers})
+  add_library(${target} INTERFACE)
+  add_dependencies(${target} ${target}_gen)
+  target_include_directories(${target} INTERFACE ${out_dir})
+endfunction()

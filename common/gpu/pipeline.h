@@ -1,0 +1,35 @@
+/* Graphics pipelines for tessellated patch rendering (vertex, control, evaluation, fragment
+ * stages; no vertex buffers: shaders derive positions from gl_VertexIndex/InstanceIndex). */
+#pragma once
+
+#include "vk.h"
+
+struct relief_vk_spirv {
+	const uint32_t *code;
+	size_t size; /* bytes */
+};
+#define RELIEF_SPIRV(array) ((struct relief_vk_spirv){ (array), sizeof(array) })
+
+struct relief_vk_tess_pipeline_desc {
+	struct relief_vk_spirv vert, tesc, tese, frag;
+	uint32_t control_points;
+	VkPipelineLayout layout;
+	VkRenderPass pass;
+	bool wireframe; /* needs vk->has.fill_mode_non_solid */
+};
+
+/* The pipeline has dynamic viewport and scissor, depth test LESS with writes, back faces
+ * kept (terrain may be seen from below when the camera is inside it). */
+int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_tess_pipeline_desc *d,
+                                   VkPipeline *out);
+/* A pipeline layout with one push-constant range of `push_size` bytes visible to all
+ * graphics stages, and up to one descriptor set layout (may be VK_NULL_HANDLE). */
+int relief_vk_pipeline_layout_create(struct relief_vk *vk, uint32_t push_size, VkDescriptorSetLayout set,
+                                     VkPipelineLayout *out);
+
+/* Upper bound on tessellated vertices in one draw. lavapipe (Mesa 22.3) corrupts and slows
+ * down draws that generate more than 65,536 tessellated vertices (docs/platform.md); the
+ * renderers split their draws to stay at or below it on every device. */
+#define RELIEF_VK_MAX_TESS_VERTICES_PER_DRAW 65536u
+/* How many quad patches of equal tessellation factor `factor` (1..64) fit in one draw. */
+uint32_t relief_vk_quads_per_draw(uint32_t factor);

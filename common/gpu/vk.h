@@ -1,0 +1,162 @@
+/* The Vulkan context shared by reliefd and the in-process tools (relief snap, bench).
+ *
+ * Ownership: struct relief_vk owns the instance, the debug messenger, the logical device and
+ * its command pool; they are destroyed by relief_vk_destroy() in reverse order. `phys` and
+ * `queue` are handles owned by the instance and the device (never destroyed on their own).
+ * Objects made with the helpers below (buffers, images, timers) belong to whoever called the
+ * init function and must be finished before the context is destroyed.
+ *
+ * Threading: the context may be shared; `queue` and `cmd_pool` are externally synchronised
+ * (the caller serialises submissions), as in the Vulkan spec.
+ *
+ * Errors: every function returns 0 or a negative errno. A VkResult becomes an errno in one
+ * place only, relief_vk_check() (vk_result.c), which also logs the failing call by name.
+ */
+#pragma once
+
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <vulkan/vulkan.h>
+
+#include "../log.h"
+
+struct relief_vk_options {
+	/* Which device. NULL or "" means the default order (discrete, integrated, virtual, CPU).
+	 * Otherwise: a deviceUUID (32 hex digits, dashes allowed), a DRM render node path
+	 * ("/dev/dri/renderD128", matched through VK_EXT_physical_device_drm), or a substring of
+	 * the device name ("llvmpipe", "AMD"). The environment variable RELIEF_DEVICE overrides. */
+	const char *device;
+	/* Enable VK_LAYER_KHRONOS_validation with synchronisation validation. Its messages go
+	 * to the logger and are counted in validation_messages. RELIEF_VALIDATION=0|1 overrides.
+	 * Asking for it when the layer is not installed is an error (-ENOENT). */
+	bool validation;
+	const struct relief_logger *log;
+};
+
+struct relief_vk {
+	VkInstance instance;
+	VkDebugUtilsMessengerEXT messenger;
+	VkPhysicalDevice phys;
+	VkDevice device;
+	VkQueue queue;
+	uint32_t queue_family;
+	VkCommandPool cmd_pool;
+
+	VkPhysicalDeviceProperties props;
+	VkPhysicalDeviceMemoryProperties mem;
+	uint32_t timestamp_valid_bits;
+	bool validation;
+	struct {
+		bool pipeline_statistics;
+		bool fill_mode_non_solid;
+		bool draw_indirect_count;
+		bool external_memory_fd;
+	} has;
+
+	struct relief_logger log;
+	/* Validation-layer messages of severity warning or error since creation. Tests assert it
+	 * stays 0. Written from the layer's callback, hence atomic. */
+	atomic_uint validation_messages;
+};
+
+int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **out);
+void relief_vk_destroy(struct relief_vk *vk);
+
+/* The one VkResult -> errno mapping. On failure logs "<what>: <VkResult name>" and returns
+ * the negative errno; VK_SUCCESS (and other non-negative results) return 0. */
+int relief_vk_check(const struct relief_vk *vk, VkResult r, const char *what);
+int relief_vk_errno(VkResult r);
+const char *relief_vk_result_name(VkResult r);
+
+/* ---- device selection (vk_select.c): pure, so it is unit-tested without a GPU ---- */
+
+struct relief_vk_device_desc {
+	char name[VK_MAX_PHYSICAL_DEVICE_NAME_SIZE];
+	uint8_t uuid[VK_UUID_SIZE];
+	VkPhysicalDeviceType type;
+	bool has_render_node; /* VK_EXT_physical_device_drm reported a render node */
+	int64_t render_major, render_minor;
+	bool usable; /* API >= 1.2, a graphics+compute queue, tessellation shaders */
+};
+
+enum relief_vk_query_kind {
+	RELIEF_VK_QUERY_DEFAULT,
+	RELIEF_VK_QUERY_NAME,
+	RELIEF_VK_QUERY_UUID,
+	RELIEF_VK_QUERY_RENDER_NODE,
+};
+
+struct relief_vk_query {
+	enum relief_vk_query_kind kind;
+	char name[VK_MAX_PHYSICAL_DEVICE_NAME_SIZE];
+	uint8_t uuid[VK_UUID_SIZE];
+	int64_t render_major, render_minor;
+};
+
+/* Parses a device string (see relief_vk_options.device). A path is resolved with libdrm:
+ * it must be a DRM render node, else -EINVAL/-ENOENT. */
+int relief_vk_query_parse(const char *want, struct relief_vk_query *q);
+/* Picks among `devs`; writes the index. -ENODEV when nothing usable matches. Among several
+ * matches the default order breaks ties (discrete > integrated > virtual > CPU > other). */
+int relief_vk_pick_device(const struct relief_vk_device_desc *devs, size_t n,
+                          const struct relief_vk_query *q, size_t *index);
+const char *relief_vk_device_type_name(VkPhysicalDeviceType type);
+
+/* ---- memory (vk_mem.c) ---- */
+
+/* Index of a memory type allowed by type_bits with all `want` flags, else -ENOMEM. */
+int relief_vk_memory_type(const struct relief_vk *vk, uint32_t type_bits,
+                          VkMemoryPropertyFlags want, uint32_t *index);
+
+/* A buffer with its own allocation. Host-visible buffers stay mapped (`map`) and coherent. */
+struct relief_vk_buffer {
+	VkBuffer buffer;
+	VkDeviceMemory memory;
+	VkDeviceSize size;
+	void *map;
+};
+int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
+                          VkBufferUsageFlags usage, bool host_visible);
+void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
+
+/* A 2D (array) image with its own allocation and one view over all layers. */
+struct relief_vk_image {
+	VkImage image;
+	VkDeviceMemory memory;
+	VkImageView view;
+	VkFormat format;
+	uint32_t width, height, layers;
+};
+int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFormat format,
+                         uint32_t width, uint32_t height, uint32_t layers,
+                         VkImageUsageFlags usage, VkImageAspectFlags aspect);
+void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img);
+
+int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t size,
+                            VkShaderModule *out);
+
+/* ---- commands and timing (vk_cmd.c) ---- */
+
+/* Allocates and begins a one-time primary command buffer. */
+int relief_vk_cmd_begin(struct relief_vk *vk, VkCommandBuffer *cmd);
+/* Ends, submits, waits for completion and frees `cmd` (also on failure). */
+int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd);
+
+/* GPU timestamps: `count` slots; relief_vk_timer_reset() records the reset into a command
+ * buffer before any relief_vk_timer_write(); relief_vk_timer_ns() reads the elapsed time
+ * between two slots after the command buffer completed, in nanoseconds. -ENOTSUP when the
+ * queue has no timestamp support. */
+struct relief_vk_timer {
+	VkQueryPool pool;
+	uint32_t count;
+};
+int relief_vk_timer_init(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t count);
+void relief_vk_timer_finish(struct relief_vk *vk, struct relief_vk_timer *t);
+void relief_vk_timer_reset(struct relief_vk_timer *t, VkCommandBuffer cmd);
+void relief_vk_timer_write(struct relief_vk_timer *t, VkCommandBuffer cmd, uint32_t slot,
+                           VkPipelineStageFlagBits stage);
+int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t from,
+                       uint32_t to, uint64_t *ns);

@@ -1,0 +1,153 @@
+/* Buffers, images and shader modules, each with its own allocation. Fine for the small
+ * number of long-lived objects relief keeps (pools, staging, targets); not a suballocator. */
+#include <errno.h>
+#include <string.h>
+
+#include "vk.h"
+
+int relief_vk_memory_type(const struct relief_vk *vk, uint32_t type_bits, VkMemoryPropertyFlags want,
+                          uint32_t *index)
+{
+	for (uint32_t i = 0; i < vk->mem.memoryTypeCount; i++) {
+		if ((type_bits & (1u << i)) && (vk->mem.memoryTypes[i].propertyFlags & want) == want) {
+			*index = i;
+			return 0;
+		}
+	}
+	return -ENOMEM;
+}
+
+static int allocate(struct relief_vk *vk, VkMemoryRequirements req, VkMemoryPropertyFlags want,
+                    VkDeviceMemory *mem)
+{
+	uint32_t type;
+	int ret = relief_vk_memory_type(vk, req.memoryTypeBits, want, &type);
+	if (ret < 0) {
+		relief_log(&vk->log, RELIEF_LOG_ERROR, "no memory type with flags 0x%x", (unsigned)want);
+		return ret;
+	}
+	VkMemoryAllocateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+		.allocationSize = req.size,
+		.memoryTypeIndex = type,
+	};
+	return relief_vk_check(vk, vkAllocateMemory(vk->device, &info, NULL, mem), "vkAllocateMemory");
+}
+
+int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
+                          VkBufferUsageFlags usage, bool host_visible)
+{
+	memset(b, 0, sizeof(*b));
+	b->size = size;
+	VkBufferCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+		.size = size,
+		.usage = usage,
+		.sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+	};
+	int ret = relief_vk_check(vk, vkCreateBuffer(vk->device, &info, NULL, &b->buffer), "vkCreateBuffer");
+	if (ret < 0)
+		goto fail;
+	VkMemoryRequirements req;
+	vkGetBufferMemoryRequirements(vk->device, b->buffer, &req);
+	VkMemoryPropertyFlags want = host_visible
+		? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+		: VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+	if ((ret = allocate(vk, req, want, &b->memory)) < 0)
+		goto fail;
+	ret = relief_vk_check(vk, vkBindBufferMemory(vk->device, b->buffer, b->memory, 0), "vkBindBufferMemory");
+	if (ret < 0)
+		goto fail;
+	if (host_visible) {
+		ret = relief_vk_check(vk, vkMapMemory(vk->device, b->memory, 0, VK_WHOLE_SIZE, 0, &b->map),
+		                      "vkMapMemory");
+		if (ret < 0)
+			goto fail;
+	}
+	return 0;
+fail:
+	relief_vk_buffer_finish(vk, b);
+	return ret;
+}
+
+void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
+{
+	if (!b)
+		return;
+	if (b->buffer)
+		vkDestroyBuffer(vk->device, b->buffer, NULL);
+	if (b->memory)
+		vkFreeMemory(vk->device, b->memory, NULL); /* unmaps implicitly */
+	memset(b, 0, sizeof(*b));
+}
+
+int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFormat format,
+                         uint32_t width, uint32_t height, uint32_t layers,
+                         VkImageUsageFlags usage, VkImageAspectFlags aspect)
+{
+	memset(img, 0, sizeof(*img));
+	img->format = format;
+	img->width = width;
+	img->height = height;
+	img->layers = layers;
+	VkImageCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+		.imageType = VK_IMAGE_TYPE_2D,
+		.format = format,
+		.extent = { width, height, 1 },
+		.mipLevels = 1,
+		.arrayLayers = layers,
+		.samples = VK_SAMPLE_COUNT_1_BIT,
+		.tiling = VK_IMAGE_TILING_OPTIMAL,
+		.usage = usage,
+		.sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+		.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+	};
+	int ret = relief_vk_check(vk, vkCreateImage(vk->device, &info, NULL, &img->image), "vkCreateImage");
+	if (ret < 0)
+		goto fail;
+	VkMemoryRequirements req;
+	vkGetImageMemoryRequirements(vk->device, img->image, &req);
+	if ((ret = allocate(vk, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &img->memory)) < 0)
+		goto fail;
+	ret = relief_vk_check(vk, vkBindImageMemory(vk->device, img->image, img->memory, 0), "vkBindImageMemory");
+	if (ret < 0)
+		goto fail;
+	VkImageViewCreateInfo view = {
+		.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
+		.image = img->image,
+		.viewType = layers > 1 ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
+		.format = format,
+		.subresourceRange = { aspect, 0, 1, 0, layers },
+	};
+	ret = relief_vk_check(vk, vkCreateImageView(vk->device, &view, NULL, &img->view), "vkCreateImageView");
+	if (ret < 0)
+		goto fail;
+	return 0;
+fail:
+	relief_vk_image_finish(vk, img);
+	return ret;
+}
+
+void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img)
+{
+	if (!img)
+		return;
+	if (img->view)
+		vkDestroyImageView(vk->device, img->view, NULL);
+	if (img->image)
+		vkDestroyImage(vk->device, img->image, NULL);
+	if (img->memory)
+		vkFreeMemory(vk->device, img->memory, NULL);
+	memset(img, 0, sizeof(*img));
+}
+
+int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t size, VkShaderModule *out)
+{
+	VkShaderModuleCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+		.codeSize = size,
+		.pCode = code,
+	};
+	return relief_vk_check(vk, vkCreateShaderModule(vk->device, &info, NULL, out), "vkCreateShaderModule");
+}

@@ -1,0 +1,42 @@
+/* GPU test fixture: a Vulkan context with the validation layer (synchronisation checks
+ * included) whose messages are printed and counted; gpu_test_teardown() fails the test on
+ * any. Tests run on whatever device the default order picks (lavapipe in CI), or
+ * RELIEF_DEVICE. */
+#pragma once
+
+#include <dlfcn.h>
+#include <link.h>
+
+#include "../test_util.h"
+#include "vk.h"
+
+/* The Vulkan loader dlcloses the driver and layers on vkDestroyInstance; LeakSanitizer then
+ * cannot name the frames of their exit-time caches and tests/lsan.supp cannot match them.
+ * Pinning every shared object loaded so far (RTLD_NODELETE) keeps them named. Leaks in
+ * relief's own code are still reported: its frames are never in a suppressed module. */
+static int gpu_test_pin_one(struct dl_phdr_info *info, size_t size, void *data)
+{
+	if (info->dlpi_name && info->dlpi_name[0])
+		dlopen(info->dlpi_name, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+	return 0;
+}
+
+static enum relief_log_level gpu_test_level = RELIEF_LOG_WARN;
+static struct relief_logger gpu_test_log = { relief_log_stderr, &gpu_test_level };
+
+static inline struct relief_vk *gpu_test_context(void)
+{
+	struct relief_vk_options o = { .validation = true, .log = &gpu_test_log };
+	struct relief_vk *vk = NULL;
+	int ret = relief_vk_create(&o, &vk);
+	if (ret < 0)
+		fail_msg("no Vulkan context with validation: %d", ret);
+	assert_true(vk->validation);
+	dl_iterate_phdr(gpu_test_pin_one, NULL);
+	return vk;
+}
+
+static inline void gpu_test_assert_clean(struct relief_vk *vk)
+{
+	assert_int_equal(atomic_load(&vk->validation_messages), 0);
+}

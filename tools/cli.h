@@ -1,0 +1,34 @@
+/* Shared plumbing of the `relief` subcommands. Each subcommand is a function
+ * int cmd_NAME(int argc, char **argv) returning the process exit status:
+ * 0 success, 1 failure while working, 2 bad usage (unknown option, bad argument). */
+#pragma once
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "log.h"
+
+#define EXIT_USAGE 2
+
+struct relief_command {
+	const char *name;
+	const char *summary;
+	int (*run)(int argc, char **argv);
+};
+
+/* The program's logger: stderr, level from -v/--verbose or RELIEF_LOG (error|warn|info|debug). */
+extern struct relief_logger cli_log;
+void cli_log_set_level(enum relief_log_level level);
+
+/* Argument parsers: return false (after printing "relief CMD: OPTION: why") on bad input. */
+bool cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
+bool cli_parse_u32(const char *cmd, const char *opt, const char *s, uint32_t min, uint32_t max, uint32_t *out);
+bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h);
+bool cli_parse_vec3(const char *cmd, const char *opt, const char *s, double out[3]);
+/* Creates the parent directory of `path` if needed (one level, like out/). */
+int cli_make_parent_dir(const char *path);
+
+/* Writes RGBA8 pixels (row-major from the top row) as an 8-bit RGB PNG. 0 or -errno. */
+int png_write_rgba(const char *path, const uint8_t *rgba, uint32_t width, uint32_t height);
+
+int cmd_hello(int argc, char **argv);

@@ -1,0 +1,47 @@
+/* relief: the command-line front end. Thin: parses the subcommand and hands over. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "relief_version.h"
+
+static const struct relief_command commands[] = {
+	{ "hello", "render a displaced, tessellated test grid headless to a PNG", cmd_hello },
+};
+
+static void usage(FILE *f)
+{
+	fprintf(f, "usage: relief [--version] [--help] COMMAND [ARGS]\n\ncommands:\n");
+	for (size_t i = 0; i < sizeof(commands) / sizeof(commands[0]); i++)
+		fprintf(f, "  %-8s %s\n", commands[i].name, commands[i].summary);
+	fprintf(f, "\n'relief COMMAND --help' describes one command.\n");
+}
+
+int main(int argc, char **argv)
+{
+	const char *level = getenv("RELIEF_LOG");
+	if (level) {
+		static const char *const names[] = { "error", "warn", "info", "debug" };
+		for (int i = 0; i < 4; i++)
+			if (strcmp(level, names[i]) == 0)
+				cli_log_set_level((enum relief_log_level)i);
+	}
+	if (argc < 2) {
+		usage(stderr);
+		return EXIT_USAGE;
+	}
+	if (strcmp(argv[1], "--version") == 0) {
+		printf("relief %s\n", RELIEF_VERSION);
+		return 0;
+	}
+	if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
+		usage(stdout);
+		return 0;
+	}
+	for (size_t i = 0; i < sizeof(commands) / sizeof(commands[0]); i++)
+		if (strcmp(argv[1], commands[i].name) == 0)
+			return commands[i].run(argc - 1, argv + 1);
+	fprintf(stderr, "relief: '%s' is not a command (see 'relief --help')\n", argv[1]);
+	return EXIT_USAGE;
+}
