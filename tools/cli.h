@@ -32,3 +32,6 @@ int cli_make_parent_dir(const char *path);
 int png_write_rgba(const char *path, const uint8_t *rgba, uint32_t width, uint32_t height);
 
 int cmd_hello(int argc, char **argv);
+int cmd_pack(int argc, char **argv);
+int cmd_unpack(int argc, char **argv);
+int cmd_info(int argc, char **argv);

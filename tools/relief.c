@@ -7,6 +7,9 @@
 #include "relief_version.h"
 
 static const struct relief_command commands[] = {
+	{ "pack", "compress an elevation model into a .relief file", cmd_pack },
+	{ "unpack", "write the reconstructed heights of one level", cmd_unpack },
+	{ "info", "describe a .relief file", cmd_info },
 	{ "hello", "render a displaced, tessellated test grid headless to a PNG", cmd_hello },
 };
 

@@ -1,0 +1,443 @@
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "crc32c.h"
+#include "format.h"
+#include "le.h"
+
+/* Header field offsets (docs/format.md). */
+enum {
+	H_MAGIC = 0, H_VERSION = 8, H_HEADER_SIZE = 12, H_PATCH = 16, H_LEVELS = 20, H_RATIO = 24,
+	H_BLOCK = 28, H_WIDTH = 32, H_HEIGHT = 36, H_SIZE = 40, H_UNITS = 44, H_PATCHES = 48, H_MASKS = 52,
+	H_TOL = 56, H_OX = 64, H_OY = 72, H_SX = 80, H_SY = 88, H_HMIN = 96, H_HMAX = 104, H_VALID = 112,
+	H_INDEX = 120, H_BLOCKERR = 128, H_MASKOFF = 136, H_CRSOFF = 144, H_DATAOFF = 152, H_DATASIZE = 160,
+	H_FILESIZE = 168, H_CRSSIZE = 176, H_INDEXCRC = 180, H_BLOCKCRC = 184, H_MASKCRC = 188, H_CRSCRC = 192,
+	H_FLAGS = 196, H_DELTA = 200, H_RESERVED = 328, H_CRC = 508,
+};
+
+size_t relief_mask_bytes(uint32_t patch_size)
+{
+	return ((size_t)patch_size * patch_size + 7) / 8;
+}
+
+size_t relief_block_errors_per_patch(uint32_t patch_size)
+{
+	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
+	return b * b * RELIEF_BLOCK_LEVELS;
+}
+
+void relief_header_write(const struct relief_header *h, uint8_t *o)
+{
+	memset(o, 0, RELIEF_HEADER_SIZE);
+	memcpy(o + H_MAGIC, RELIEF_MAGIC, 8);
+	le_put_u32(o + H_VERSION, h->version);
+	le_put_u32(o + H_HEADER_SIZE, RELIEF_HEADER_SIZE);
+	le_put_u32(o + H_PATCH, h->patch_size);
+	le_put_u32(o + H_LEVELS, h->levels);
+	le_put_u32(o + H_RATIO, h->ratio);
+	le_put_u32(o + H_BLOCK, h->block_cells);
+	le_put_u32(o + H_WIDTH, h->width);
+	le_put_u32(o + H_HEIGHT, h->height);
+	le_put_u32(o + H_SIZE, h->size);
+	le_put_u32(o + H_UNITS, h->source_units);
+	le_put_u32(o + H_PATCHES, h->patch_count);
+	le_put_u32(o + H_MASKS, h->mask_count);
+	le_put_f64(o + H_TOL, h->tolerance);
+	le_put_f64(o + H_OX, h->origin_x);
+	le_put_f64(o + H_OY, h->origin_y);
+	le_put_f64(o + H_SX, h->spacing_x);
+	le_put_f64(o + H_SY, h->spacing_y);
+	le_put_f64(o + H_HMIN, h->height_min);
+	le_put_f64(o + H_HMAX, h->height_max);
+	le_put_u64(o + H_VALID, h->valid_samples);
+	le_put_u64(o + H_INDEX, h->index_offset);
+	le_put_u64(o + H_BLOCKERR, h->block_errors_offset);
+	le_put_u64(o + H_MASKOFF, h->masks_offset);
+	le_put_u64(o + H_CRSOFF, h->crs_offset);
+	le_put_u64(o + H_DATAOFF, h->data_offset);
+	le_put_u64(o + H_DATASIZE, h->data_size);
+	le_put_u64(o + H_FILESIZE, h->file_size);
+	le_put_u32(o + H_CRSSIZE, h->crs_size);
+	le_put_u32(o + H_INDEXCRC, h->index_crc);
+	le_put_u32(o + H_BLOCKCRC, h->block_errors_crc);
+	le_put_u32(o + H_MASKCRC, h->masks_crc);
+	le_put_u32(o + H_CRSCRC, h->crs_crc);
+	le_put_u32(o + H_FLAGS, h->flags);
+	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
+		le_put_f64(o + H_DELTA + 8 * l, l < h->levels ? h->delta[l] : 0.0);
+	le_put_u32(o + H_CRC, relief_crc32c(0, o, H_CRC));
+}
+
+__attribute__((format(printf, 3, 4)))
+static int bad(char *err, size_t err_size, const char *fmt, ...)
+{
+	if (err && err_size) {
+		va_list ap;
+		va_start(ap, fmt);
+		vsnprintf(err, err_size, fmt, ap);
+		va_end(ap);
+	}
+	return -EBADMSG;
+}
+
+static bool finite_in(double v, double lo, double hi)
+{
+	return isfinite(v) && v >= lo && v <= hi;
+}
+
+/* A section [off, off + len) inside the file, 8-byte aligned, not overlapping the header. */
+static bool section_ok(uint64_t off, uint64_t len, uint64_t file_size)
+{
+	return off >= RELIEF_HEADER_SIZE && off % 8 == 0 && off <= file_size && len <= file_size - off;
+}
+
+int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, struct relief_layout *lay,
+                        char *err, size_t err_size)
+{
+	if (size < RELIEF_HEADER_SIZE)
+		return bad(err, err_size, "file too short for a header (%zu bytes, need %u)", size, RELIEF_HEADER_SIZE);
+	if (memcmp(b, RELIEF_MAGIC, 8) != 0)
+		return bad(err, err_size, "not a .relief file (bad magic)");
+	struct relief_header r = { 0 };
+	r.version = le_get_u32(b + H_VERSION);
+	if (r.version != RELIEF_FORMAT_VERSION)
+		return bad(err, err_size, "format version %u is not supported (this build reads %u)", r.version,
+		           RELIEF_FORMAT_VERSION);
+	if (le_get_u32(b + H_HEADER_SIZE) != RELIEF_HEADER_SIZE)
+		return bad(err, err_size, "header size %u, expected %u", le_get_u32(b + H_HEADER_SIZE), RELIEF_HEADER_SIZE);
+	uint32_t crc = relief_crc32c(0, b, H_CRC);
+	if (crc != le_get_u32(b + H_CRC))
+		return bad(err, err_size, "header checksum mismatch (stored %08x, computed %08x)", le_get_u32(b + H_CRC), crc);
+	for (size_t i = H_RESERVED; i < H_CRC; i++)
+		if (b[i])
+			return bad(err, err_size, "reserved header byte %zu is not zero", i);
+	r.patch_size = le_get_u32(b + H_PATCH);
+	r.levels = le_get_u32(b + H_LEVELS);
+	r.ratio = le_get_u32(b + H_RATIO);
+	r.block_cells = le_get_u32(b + H_BLOCK);
+	r.width = le_get_u32(b + H_WIDTH);
+	r.height = le_get_u32(b + H_HEIGHT);
+	r.size = le_get_u32(b + H_SIZE);
+	r.source_units = le_get_u32(b + H_UNITS);
+	r.patch_count = le_get_u32(b + H_PATCHES);
+	r.mask_count = le_get_u32(b + H_MASKS);
+	r.tolerance = le_get_f64(b + H_TOL);
+	r.origin_x = le_get_f64(b + H_OX);
+	r.origin_y = le_get_f64(b + H_OY);
+	r.spacing_x = le_get_f64(b + H_SX);
+	r.spacing_y = le_get_f64(b + H_SY);
+	r.height_min = le_get_f64(b + H_HMIN);
+	r.height_max = le_get_f64(b + H_HMAX);
+	r.valid_samples = le_get_u64(b + H_VALID);
+	r.index_offset = le_get_u64(b + H_INDEX);
+	r.block_errors_offset = le_get_u64(b + H_BLOCKERR);
+	r.masks_offset = le_get_u64(b + H_MASKOFF);
+	r.crs_offset = le_get_u64(b + H_CRSOFF);
+	r.data_offset = le_get_u64(b + H_DATAOFF);
+	r.data_size = le_get_u64(b + H_DATASIZE);
+	r.file_size = le_get_u64(b + H_FILESIZE);
+	r.crs_size = le_get_u32(b + H_CRSSIZE);
+	r.index_crc = le_get_u32(b + H_INDEXCRC);
+	r.block_errors_crc = le_get_u32(b + H_BLOCKCRC);
+	r.masks_crc = le_get_u32(b + H_MASKCRC);
+	r.crs_crc = le_get_u32(b + H_CRSCRC);
+	r.flags = le_get_u32(b + H_FLAGS);
+
+	if (r.patch_size != 65 && r.patch_size != 129 && r.patch_size != 257)
+		return bad(err, err_size, "patch size %u is not 65, 129 or 257", r.patch_size);
+	if (r.levels < 1 || r.levels > RELIEF_MAX_LEVELS)
+		return bad(err, err_size, "level count %u outside 1..%u", r.levels, RELIEF_MAX_LEVELS);
+	if (r.ratio != 2 && r.ratio != 3)
+		return bad(err, err_size, "tolerance ratio %u is not 2 or 3", r.ratio);
+	if (r.block_cells != RELIEF_BLOCK_CELLS)
+		return bad(err, err_size, "block size %u cells, expected %u", r.block_cells, RELIEF_BLOCK_CELLS);
+	if (!finite_in(r.tolerance, 1e-4, 1e4))
+		return bad(err, err_size, "tolerance %g m outside [1e-4, 1e4]", r.tolerance);
+	struct relief_layout L;
+	if (relief_layout_init(&L, r.patch_size, r.levels, r.ratio, r.tolerance) < 0)
+		return bad(err, err_size, "inconsistent layout");
+	if (r.size != L.size)
+		return bad(err, err_size, "grid size %u does not match %u levels of %u-sample patches (%u)", r.size,
+		           r.levels, r.patch_size, L.size);
+	if (r.width < 1 || r.height < 1 || r.width > r.size || r.height > r.size)
+		return bad(err, err_size, "valid extent %ux%u outside the %u-sample grid", r.width, r.height, r.size);
+	if (r.patch_count != L.patch_count)
+		return bad(err, err_size, "patch count %u, expected %u", r.patch_count, L.patch_count);
+	if (r.mask_count > r.patch_count)
+		return bad(err, err_size, "mask count %u exceeds the patch count", r.mask_count);
+	if (r.source_units > RELIEF_UNITS_FEET)
+		return bad(err, err_size, "unknown vertical units code %u", r.source_units);
+	if (r.flags != 0)
+		return bad(err, err_size, "unknown header flags 0x%x", r.flags);
+	if (!finite_in(r.origin_x, -1e9, 1e9) || !finite_in(r.origin_y, -1e9, 1e9))
+		return bad(err, err_size, "origin (%g, %g) is not a finite position within 1e9 m", r.origin_x, r.origin_y);
+	if (!finite_in(r.spacing_x, 1e-6, 1e7) || !finite_in(r.spacing_y, 1e-6, 1e7))
+		return bad(err, err_size, "sample spacing (%g, %g) m outside [1e-6, 1e7]", r.spacing_x, r.spacing_y);
+	if (!finite_in(r.height_min, -1e6, 1e6) || !finite_in(r.height_max, r.height_min, 1e6))
+		return bad(err, err_size, "height range [%g, %g] m is not valid", r.height_min, r.height_max);
+	if (r.valid_samples < 1 || r.valid_samples > (uint64_t)r.width * r.height)
+		return bad(err, err_size, "valid sample count %llu outside 1..%llu", (unsigned long long)r.valid_samples,
+		           (unsigned long long)r.width * r.height);
+	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++) {
+		double d = le_get_f64(b + H_DELTA + 8 * l);
+		if (l < r.levels) {
+			if (d != L.delta[l])
+				return bad(err, err_size, "level %u tolerance %g m, expected %g m", l, d, L.delta[l]);
+			r.delta[l] = d;
+		} else if (d != 0.0) {
+			return bad(err, err_size, "tolerance given for nonexistent level %u", l);
+		}
+	}
+	if (r.file_size != size)
+		return bad(err, err_size, "file is %zu bytes but its header says %llu (truncated or extended)", size,
+		           (unsigned long long)r.file_size);
+	uint64_t idx_len = (uint64_t)r.patch_count * RELIEF_INDEX_RECORD_SIZE;
+	uint64_t be_len = (uint64_t)r.patch_count * relief_block_errors_per_patch(r.patch_size) * 4;
+	uint64_t mask_len = (uint64_t)r.mask_count * relief_mask_bytes(r.patch_size);
+	if (!section_ok(r.index_offset, idx_len, size))
+		return bad(err, err_size, "index section out of bounds");
+	if (!section_ok(r.block_errors_offset, be_len, size) || r.block_errors_offset < r.index_offset + idx_len)
+		return bad(err, err_size, "block error section out of bounds or overlapping");
+	if (!section_ok(r.masks_offset, mask_len, size) || r.masks_offset < r.block_errors_offset + be_len)
+		return bad(err, err_size, "mask section out of bounds or overlapping");
+	if (!section_ok(r.crs_offset, r.crs_size, size) || r.crs_offset < r.masks_offset + mask_len)
+		return bad(err, err_size, "CRS section out of bounds or overlapping");
+	if (!section_ok(r.data_offset, r.data_size, size) || r.data_offset < r.crs_offset + r.crs_size)
+		return bad(err, err_size, "data section out of bounds or overlapping");
+	*h = r;
+	*lay = L;
+	return 0;
+}
+
+void relief_record_write(const struct relief_patch_record *r, uint8_t *o)
+{
+	memset(o, 0, RELIEF_INDEX_RECORD_SIZE);
+	le_put_u64(o, r->offset);
+	le_put_u32(o + 8, r->size);
+	le_put_u32(o + 12, r->crc);
+	le_put_f32(o + 16, r->height_min);
+	le_put_f32(o + 20, r->height_max);
+	le_put_f32(o + 24, r->error);
+	le_put_u32(o + 28, r->flags);
+	le_put_u32(o + 32, r->mask_index);
+}
+
+void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
+{
+	r->offset = le_get_u64(in);
+	r->size = le_get_u32(in + 8);
+	r->crc = le_get_u32(in + 12);
+	r->height_min = le_get_f32(in + 16);
+	r->height_max = le_get_f32(in + 20);
+	r->error = le_get_f32(in + 24);
+	r->flags = le_get_u32(in + 28);
+	r->mask_index = le_get_u32(in + 32);
+}
+
+static int validate_body(struct relief_file *f, char *err, size_t err_size)
+{
+	const struct relief_header *h = &f->hdr;
+	const uint8_t *b = f->base;
+	uint64_t idx_len = (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE;
+	size_t be_per = relief_block_errors_per_patch(h->patch_size);
+	uint64_t be_len = (uint64_t)h->patch_count * be_per * 4;
+	uint64_t mask_len = (uint64_t)h->mask_count * relief_mask_bytes(h->patch_size);
+	if (relief_crc32c(0, b + h->index_offset, idx_len) != h->index_crc)
+		return bad(err, err_size, "index checksum mismatch");
+	if (relief_crc32c(0, b + h->block_errors_offset, be_len) != h->block_errors_crc)
+		return bad(err, err_size, "block error checksum mismatch");
+	if (relief_crc32c(0, b + h->masks_offset, mask_len) != h->masks_crc)
+		return bad(err, err_size, "mask checksum mismatch");
+	if (relief_crc32c(0, b + h->crs_offset, h->crs_size) != h->crs_crc)
+		return bad(err, err_size, "CRS checksum mismatch");
+	if (memchr(b + h->crs_offset, 0, h->crs_size))
+		return bad(err, err_size, "CRS text contains a NUL byte");
+
+	uint8_t *mask_used = calloc(h->mask_count ? h->mask_count : 1, 1);
+	if (!mask_used)
+		return -ENOMEM;
+	int ret = 0;
+	for (uint32_t id = 0; id < h->patch_count && ret == 0; id++) {
+		struct relief_patch_record r;
+		relief_record_read(b + h->index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, &r);
+		uint32_t l, px, py;
+		relief_patch_coords(&f->layout, id, &l, &px, &py);
+		if (r.flags & ~RELIEF_PATCH_FLAGS_KNOWN)
+			ret = bad(err, err_size, "patch %u (level %u, %u,%u): unknown flags 0x%x", id, l, px, py, r.flags);
+		else if (r.flags & RELIEF_PATCH_EMPTY) {
+			if (r.size || r.offset || (r.flags & RELIEF_PATCH_MASKED))
+				ret = bad(err, err_size, "patch %u (level %u, %u,%u): empty patch with data", id, l, px, py);
+		} else if (r.offset > h->data_size || r.size > h->data_size - r.offset || r.size == 0)
+			ret = bad(err, err_size, "patch %u (level %u, %u,%u): stream [%llu, +%u) outside the data section",
+			          id, l, px, py, (unsigned long long)r.offset, r.size);
+		else if (!isfinite(r.height_min) || !isfinite(r.height_max) || r.height_min > r.height_max ||
+		         fabs(r.height_min) > 1e6 || fabs(r.height_max) > 1e6)
+			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad height range", id, l, px, py);
+		else if (!isfinite(r.error) || r.error < 0 || r.error > 1e6)
+			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad error bound %g", id, l, px, py, r.error);
+		else if (r.flags & RELIEF_PATCH_MASKED) {
+			if (r.mask_index >= h->mask_count || mask_used[r.mask_index])
+				ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad mask index %u", id, l, px, py,
+				          r.mask_index);
+			else
+				mask_used[r.mask_index] = 1;
+		}
+		if (ret == 0 && id > 0 && !(r.flags & RELIEF_PATCH_EMPTY)) {
+			/* A patch with data needs a parent with data: decoding walks down from the root. */
+			uint32_t parent = relief_patch_id(l - 1, px / 2, py / 2);
+			struct relief_patch_record pr;
+			relief_record_read(b + h->index_offset + (uint64_t)parent * RELIEF_INDEX_RECORD_SIZE, &pr);
+			if (pr.flags & RELIEF_PATCH_EMPTY)
+				ret = bad(err, err_size, "patch %u (level %u, %u,%u) has data but its parent is empty", id, l,
+				          px, py);
+		} else if (ret == 0 && id == 0 && (r.flags & RELIEF_PATCH_EMPTY)) {
+			ret = bad(err, err_size, "the root patch is empty");
+		}
+		if (ret == 0) {
+			const uint8_t *eps = b + h->block_errors_offset + (uint64_t)id * be_per * 4;
+			for (size_t i = 0; i < be_per; i++) {
+				float e = le_get_f32(eps + 4 * i);
+				if (!isfinite(e) || e < 0 || e > 1e6) {
+					ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad block error", id, l, px, py);
+					break;
+				}
+			}
+		}
+	}
+	free(mask_used);
+	return ret;
+}
+
+static int open_image(struct relief_file *f, char *err, size_t err_size)
+{
+	int ret = relief_header_parse(f->base, f->size, &f->hdr, &f->layout, err, err_size);
+	if (ret < 0)
+		return ret;
+	if ((ret = validate_body(f, err, err_size)) < 0)
+		return ret;
+	f->crs = strndup((const char *)f->base + f->hdr.crs_offset, f->hdr.crs_size);
+	return f->crs ? 0 : -ENOMEM;
+}
+
+int relief_file_open_memory(const void *buf, size_t size, struct relief_file **out, char *err, size_t err_size)
+{
+	struct relief_file *f = calloc(1, sizeof(*f));
+	if (!f)
+		return -ENOMEM;
+	f->base = buf;
+	f->size = size;
+	int ret = open_image(f, err, err_size);
+	if (ret < 0) {
+		relief_file_close(f);
+		return ret;
+	}
+	*out = f;
+	return 0;
+}
+
+int relief_file_open(const char *path, struct relief_file **out, char *err, size_t err_size)
+{
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0) {
+		int e = errno;
+		snprintf(err, err_size, "%s", strerror(e));
+		return -e;
+	}
+	struct stat st;
+	if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+		int e = S_ISREG(st.st_mode) ? errno : EINVAL;
+		close(fd);
+		snprintf(err, err_size, "%s", e == EINVAL ? "not a regular file" : strerror(e));
+		return -e;
+	}
+	if ((uint64_t)st.st_size < RELIEF_HEADER_SIZE) {
+		close(fd);
+		return bad(err, err_size, "file too short for a header (%lld bytes, need %u)", (long long)st.st_size,
+		           RELIEF_HEADER_SIZE);
+	}
+	void *map = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
+	int e = errno;
+	close(fd);
+	if (map == MAP_FAILED) {
+		snprintf(err, err_size, "mmap: %s", strerror(e));
+		return -e;
+	}
+	struct relief_file *f = calloc(1, sizeof(*f));
+	if (!f) {
+		munmap(map, (size_t)st.st_size);
+		return -ENOMEM;
+	}
+	f->base = map;
+	f->size = (size_t)st.st_size;
+	f->mapped = true;
+	int ret = open_image(f, err, err_size);
+	if (ret < 0) {
+		relief_file_close(f);
+		return ret;
+	}
+	*out = f;
+	return 0;
+}
+
+void relief_file_close(struct relief_file *f)
+{
+	if (!f)
+		return;
+	if (f->mapped && f->base)
+		munmap((void *)f->base, f->size);
+	free(f->crs);
+	free(f);
+}
+
+void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r)
+{
+	relief_record_read(f->base + f->hdr.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, r);
+}
+
+int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t **data, size_t *size)
+{
+	struct relief_patch_record r;
+	relief_file_record(f, id, &r);
+	if (r.flags & RELIEF_PATCH_EMPTY)
+		return -ENOENT;
+	const uint8_t *p = f->base + f->hdr.data_offset + r.offset;
+	if (relief_crc32c(0, p, r.size) != r.crc)
+		return -EBADMSG;
+	*data = p;
+	*size = r.size;
+	return 0;
+}
+
+void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps)
+{
+	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
+	const uint8_t *p = f->base + f->hdr.block_errors_offset + (uint64_t)id * n * 4;
+	for (size_t i = 0; i < n; i++)
+		eps[i] = le_get_f32(p + 4 * i);
+}
+
+void relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask)
+{
+	struct relief_patch_record r;
+	relief_file_record(f, id, &r);
+	size_t n = (size_t)f->hdr.patch_size * f->hdr.patch_size;
+	if (r.flags & RELIEF_PATCH_EMPTY) {
+		memset(mask, 0, n);
+		return;
+	}
+	if (!(r.flags & RELIEF_PATCH_MASKED)) {
+		memset(mask, 1, n);
+		return;
+	}
+	const uint8_t *bits = f->base + f->hdr.masks_offset + (uint64_t)r.mask_index * relief_mask_bytes(f->hdr.patch_size);
+	for (size_t i = 0; i < n; i++)
+		mask[i] = (bits[i / 8] >> (i % 8)) & 1;
+}

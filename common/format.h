@@ -1,0 +1,95 @@
+/* The .relief container (specified in docs/format.md). Little-endian, versioned, with every
+ * section 8-byte aligned so that a memory-mapped file can be read in place.
+ *
+ * Opening validates every header field, the index records and the section checksums; a
+ * corrupt, truncated or hostile file gets -EBADMSG (or -EINVAL for a bad path) and a
+ * message naming what is wrong, never an out-of-bounds read. Patch streams carry their own
+ * CRC32C, checked when a stream is fetched, so one damaged patch does not make the whole
+ * file unreadable.
+ */
+#pragma once
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "layout.h"
+
+#define RELIEF_MAGIC "RELIEF\x1a\n"
+#define RELIEF_FORMAT_VERSION 1u
+#define RELIEF_HEADER_SIZE 512u
+#define RELIEF_INDEX_RECORD_SIZE 40u
+
+enum relief_patch_flags {
+	RELIEF_PATCH_EMPTY = 1u << 0,  /* no valid sample in its footprint: no stream */
+	RELIEF_PATCH_MASKED = 1u << 1, /* some of its samples are no-data: has a mask */
+};
+#define RELIEF_PATCH_FLAGS_KNOWN (RELIEF_PATCH_EMPTY | RELIEF_PATCH_MASKED)
+
+enum relief_units {
+	RELIEF_UNITS_METRES = 0,
+	RELIEF_UNITS_FEET = 1, /* the source was in feet; stored heights are metres anyway */
+};
+
+struct relief_header {
+	uint32_t version;
+	uint32_t patch_size, levels, ratio, block_cells;
+	uint32_t width, height; /* the raster's valid extent, finest-level samples [0,w) x [0,h) */
+	uint32_t size;          /* finest level samples per side (padded) */
+	uint32_t source_units;
+	uint32_t patch_count, mask_count;
+	uint32_t flags;
+	double tolerance;
+	double origin_x, origin_y;   /* world position of sample (0, 0), the north-west corner */
+	double spacing_x, spacing_y; /* metres; world y = origin_y - row * spacing_y */
+	double height_min, height_max; /* over valid original samples, metres */
+	uint64_t valid_samples;
+	uint64_t index_offset, block_errors_offset, masks_offset, crs_offset, data_offset, data_size, file_size;
+	uint32_t crs_size;
+	uint32_t index_crc, block_errors_crc, masks_crc, crs_crc;
+	double delta[RELIEF_MAX_LEVELS];
+};
+
+struct relief_patch_record {
+	uint64_t offset; /* in the data section */
+	uint32_t size;
+	uint32_t crc;
+	float height_min, height_max; /* reconstructed interior samples, metres */
+	float error;                  /* Err(P), metres */
+	uint32_t flags;
+	uint32_t mask_index;
+};
+
+/* Byte sizes derived from the header. */
+size_t relief_mask_bytes(uint32_t patch_size);
+size_t relief_block_errors_per_patch(uint32_t patch_size); /* floats */
+
+/* Serialises / parses the 512-byte header (parse checks magic, version, sizes, ranges and
+ * the header CRC, and fills `lay`). */
+void relief_header_write(const struct relief_header *h, uint8_t *out);
+int relief_header_parse(const uint8_t *buf, size_t size, struct relief_header *h, struct relief_layout *lay,
+                        char *err, size_t err_size);
+void relief_record_write(const struct relief_patch_record *r, uint8_t *out);
+void relief_record_read(const uint8_t *in, struct relief_patch_record *r);
+
+struct relief_file {
+	struct relief_header hdr;
+	struct relief_layout layout;
+	const uint8_t *base;
+	size_t size;
+	bool mapped;
+	char *crs; /* NUL-terminated copy of the CRS WKT (may be empty) */
+};
+
+/* Maps and validates a file. err receives a one-line reason on failure. */
+int relief_file_open(const char *path, struct relief_file **out, char *err, size_t err_size);
+/* Validates a file image in memory; the buffer is borrowed and must outlive the file. */
+int relief_file_open_memory(const void *buf, size_t size, struct relief_file **out, char *err, size_t err_size);
+void relief_file_close(struct relief_file *f);
+
+void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r);
+/* The patch's stream after its CRC check: -EBADMSG on mismatch, -ENOENT for an empty patch. */
+int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t **data, size_t *size);
+void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps);
+/* 1 byte per interior sample (P x P), 1 = valid. */
+void relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask);

@@ -1,0 +1,86 @@
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "layout.h"
+
+int relief_layout_init(struct relief_layout *lay, uint32_t patch, uint32_t levels, uint32_t ratio, double tolerance)
+{
+	if ((patch != 65 && patch != 129 && patch != 257) || levels < 1 || levels > RELIEF_MAX_LEVELS ||
+	    (ratio != 2 && ratio != 3) || !(tolerance >= 1e-4 && tolerance <= 1e4))
+		return -EINVAL;
+	memset(lay, 0, sizeof(*lay));
+	int ret = relief_patch_geom_init(&lay->geom, patch);
+	if (ret < 0)
+		return ret;
+	lay->levels = levels;
+	lay->size = relief_level_size(lay, levels - 1);
+	lay->ratio = ratio;
+	lay->blocks = (patch - 1) / RELIEF_BLOCK_CELLS;
+	lay->patch_count = relief_level_first_id(levels);
+	lay->tolerance = tolerance;
+	double d = tolerance;
+	for (int l = (int)levels - 1; l >= 0; l--) {
+		lay->delta[l] = d;
+		d *= ratio;
+	}
+	return 0;
+}
+
+uint32_t relief_layout_levels_for(uint32_t patch, uint32_t width, uint32_t height)
+{
+	uint64_t need = width > height ? width : height;
+	uint32_t L = 0;
+	while ((uint64_t)(patch - 1) * (1ull << L) + 1 < need && L < 63)
+		L++;
+	return L + 1;
+}
+
+bool relief_patch_coords(const struct relief_layout *lay, uint32_t id, uint32_t *l, uint32_t *px, uint32_t *py)
+{
+	if (id >= lay->patch_count)
+		return false;
+	uint32_t level = 0;
+	while (relief_level_first_id(level + 1) <= id)
+		level++;
+	uint32_t local = id - relief_level_first_id(level);
+	*l = level;
+	*px = local % (1u << level);
+	*py = local / (1u << level);
+	return true;
+}
+
+int relief_qgrid_init(struct relief_qgrid *g, uint32_t size)
+{
+	g->size = size;
+	g->q = calloc((size_t)(size + 2) * (size + 2), sizeof(int32_t));
+	return g->q ? 0 : -ENOMEM;
+}
+
+void relief_qgrid_finish(struct relief_qgrid *g)
+{
+	if (!g)
+		return;
+	free(g->q);
+	g->q = NULL;
+}
+
+void relief_qgrid_get_patch(const struct relief_qgrid *g, const struct relief_patch_geom *geom,
+                            uint32_t px, uint32_t py, int32_t *block)
+{
+	/* Patch local -1 = global px (P-1) - 1 = storage index px (P-1). */
+	size_t stride = g->size + 2;
+	for (uint32_t y = 0; y < geom->E; y++)
+		memcpy(block + (size_t)y * geom->E, g->q + (py * (geom->P - 1) + y) * stride + px * (geom->P - 1),
+		       sizeof(int32_t) * geom->E);
+}
+
+void relief_qgrid_put_patch(struct relief_qgrid *g, const struct relief_patch_geom *geom,
+                            uint32_t px, uint32_t py, const int32_t *block)
+{
+	size_t stride = g->size + 2;
+	for (uint32_t y = 0; y < geom->E; y++)
+		memcpy(g->q + (py * (geom->P - 1) + y) * stride + px * (geom->P - 1), block + (size_t)y * geom->E,
+		       sizeof(int32_t) * geom->E);
+}

@@ -1,0 +1,71 @@
+/* Geometry of the patch quadtree (docs/format.md §Layout).
+ *
+ * Level 0 is the root (one patch), level L = levels - 1 the full resolution. Level l has
+ * 2^l x 2^l patches and S_l = 2^l (P - 1) + 1 samples per side; h_(l-1)[y][x] = h_l[2y][2x]
+ * (decimation). Patch (l, px, py) covers level-l samples [px (P-1), px (P-1) + P - 1] in x
+ * (east) and likewise in y (rows, southwards); neighbours share their border samples.
+ * Patch ids are level-major: id = (4^l - 1) / 3 + py 2^l + px.
+ *
+ * Tolerances: delta_L = the user's tolerance, delta_(l-1) = ratio * delta_l.
+ * Tessellation blocks: RELIEF_BLOCK_CELLS x RELIEF_BLOCK_CELLS cells, (P-1)/16 per side.
+ */
+#pragma once
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "codec.h"
+
+#define RELIEF_MAX_LEVELS 16
+#define RELIEF_BLOCK_CELLS 16
+#define RELIEF_BLOCK_LEVELS 4 /* simplification by 2^d, d = 1..4 */
+
+struct relief_layout {
+	struct relief_patch_geom geom;
+	uint32_t levels;
+	uint32_t size;        /* S_L, finest samples per side */
+	uint32_t ratio;       /* 2 or 3 */
+	uint32_t blocks;      /* blocks per patch side */
+	uint32_t patch_count; /* (4^levels - 1) / 3 */
+	double tolerance;     /* delta_L in metres */
+	double delta[RELIEF_MAX_LEVELS];
+};
+
+/* -EINVAL for a patch size other than 65/129/257, levels outside 1..16, ratio other than
+ * 2 or 3, or a tolerance outside [1e-4, 1e4] m. */
+int relief_layout_init(struct relief_layout *lay, uint32_t patch, uint32_t levels, uint32_t ratio, double tolerance);
+/* Levels needed so that a W x H raster fits: the smallest L with 2^L (P-1) + 1 >= max(W, H). */
+uint32_t relief_layout_levels_for(uint32_t patch, uint32_t width, uint32_t height);
+
+static inline uint32_t relief_level_size(const struct relief_layout *lay, uint32_t l)
+{
+	return (lay->geom.P - 1) * (1u << l) + 1;
+}
+
+static inline uint32_t relief_level_first_id(uint32_t l)
+{
+	return (uint32_t)(((1ull << (2 * l)) - 1) / 3);
+}
+
+static inline uint32_t relief_patch_id(uint32_t l, uint32_t px, uint32_t py)
+{
+	return relief_level_first_id(l) + py * (1u << l) + px;
+}
+
+/* Inverse of relief_patch_id; false for an id outside the tree. */
+bool relief_patch_coords(const struct relief_layout *lay, uint32_t id, uint32_t *l, uint32_t *px, uint32_t *py);
+
+/* A level's quantised values with a one-sample ring: (size + 2)^2 values, sample (x, y)
+ * for x, y in [-1, size] at [(y + 1)(size + 2) + x + 1]. */
+struct relief_qgrid {
+	uint32_t size;
+	int32_t *q;
+};
+
+int relief_qgrid_init(struct relief_qgrid *g, uint32_t size);
+void relief_qgrid_finish(struct relief_qgrid *g);
+/* Copies patch (px, py)'s E x E block (with ring) out of / into a level grid. */
+void relief_qgrid_get_patch(const struct relief_qgrid *g, const struct relief_patch_geom *geom,
+                            uint32_t px, uint32_t py, int32_t *block);
+void relief_qgrid_put_patch(struct relief_qgrid *g, const struct relief_patch_geom *geom,
+                            uint32_t px, uint32_t py, const int32_t *block);

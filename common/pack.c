@@ -1,0 +1,410 @@
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "crc32c.h"
+#include "fill.h"
+#include "format.h"
+#include "le.h"
+#include "pack.h"
+#include "parallel.h"
+#include "patch_error.h"
+
+void relief_dem_finish(struct relief_dem *d)
+{
+	if (!d)
+		return;
+	free(d->heights);
+	free(d->valid);
+	free(d->crs_wkt);
+	free(d->raw16);
+	memset(d, 0, sizeof(*d));
+}
+
+/* Smallest float >= v: stored bounds must never round below what was measured. */
+static float float_up(double v)
+{
+	float f = (float)v;
+	if ((double)f < v)
+		f = nextafterf(f, INFINITY);
+	return f;
+}
+
+static float float_down(double v)
+{
+	float f = (float)v;
+	if ((double)f > v)
+		f = nextafterf(f, -INFINITY);
+	return f;
+}
+
+struct packer {
+	const struct relief_dem *dem;
+	const struct relief_pack_options *opts;
+	struct relief_layout lay;
+	float *filled; /* size x size */
+	struct relief_qgrid q[RELIEF_MAX_LEVELS];
+	uint32_t level; /* for the per-level row jobs */
+	struct relief_original orig;
+
+	/* per patch results */
+	struct relief_patch_record *rec;
+	uint8_t **stream;
+	float *eps;
+	uint8_t *mask_bits; /* patch_count * mask_bytes; only MASKED ones are kept */
+
+	pthread_mutex_t lock;
+	uint32_t done;
+	uint64_t bytes_done;
+	double level_err[RELIEF_MAX_LEVELS];
+};
+
+/* Quantises row y (in [-1, S]) of level p->level. Refined samples (both coordinates even)
+ * refine the parent: q = k q_parent + r with r clamped to {-1, 0, 1}. For k = 2 the clamp
+ * never acts (|h/(2 delta) - 2 q_parent| <= 1); for k = 3 it only acts at exact ties
+ * (|.| = 1.5), where r = +-1 still gives |h - 2 delta q| = delta. */
+static int quantise_row(void *ctx, size_t row)
+{
+	struct packer *p = ctx;
+	uint32_t l = p->level;
+	struct relief_qgrid *g = &p->q[l];
+	const uint32_t S = g->size, step = 1u << (p->lay.levels - 1 - l), full = p->lay.size;
+	const double inv = 1.0 / (2.0 * p->lay.delta[l]);
+	const int32_t k = (int32_t)p->lay.ratio;
+	int y = (int)row - 1;
+	uint32_t cy = y < 0 ? 0 : (uint32_t)y >= S ? S - 1 : (uint32_t)y;
+	int32_t *out = g->q + row * (S + 2);
+	for (int x = -1; x <= (int)S; x++) {
+		uint32_t cx = x < 0 ? 0 : (uint32_t)x >= S ? S - 1 : (uint32_t)x;
+		double h = p->filled[(size_t)cy * step * full + (size_t)cx * step];
+		int32_t q = (int32_t)llround(h * inv);
+		if (l > 0 && x >= 0 && y >= 0 && x < (int)S && y < (int)S && !(x & 1) && !(y & 1)) {
+			const struct relief_qgrid *pg = &p->q[l - 1];
+			int32_t qp = pg->q[(size_t)(y / 2 + 1) * (pg->size + 2) + x / 2 + 1];
+			int32_t r = q - k * qp;
+			r = r < -1 ? -1 : r > 1 ? 1 : r;
+			q = k * qp + r;
+		}
+		out[x + 1] = q;
+	}
+	return 0;
+}
+
+static void measure_level_error(struct packer *p, uint32_t l)
+{
+	const struct relief_qgrid *g = &p->q[l];
+	const uint32_t step = 1u << (p->lay.levels - 1 - l);
+	const double q2 = 2.0 * p->lay.delta[l];
+	double worst = 0.0;
+	for (uint64_t Y = 0; Y < p->dem->height; Y += step)
+		for (uint64_t X = 0; X < p->dem->width; X += step) {
+			size_t i = (size_t)Y * p->dem->width + X;
+			if (!p->dem->valid[i])
+				continue;
+			double e = fabs(p->dem->heights[i] - q2 * g->q[(Y / step + 1) * (g->size + 2) + X / step + 1]);
+			worst = e > worst ? e : worst;
+		}
+	p->level_err[l] = worst;
+}
+
+static int encode_patch(void *ctx, size_t id)
+{
+	struct packer *p = ctx;
+	const struct relief_patch_geom *geom = &p->lay.geom;
+	const uint32_t P = geom->P, E = geom->E;
+	uint32_t l, px, py;
+	relief_patch_coords(&p->lay, (uint32_t)id, &l, &px, &py);
+	struct relief_patch_record *r = &p->rec[id];
+	memset(r, 0, sizeof(*r));
+
+	/* block, parent block, residuals (the root codes all E*E values as residuals) */
+	int32_t *block = malloc(sizeof(int32_t) * E * E * 3);
+	float *heights = malloc(sizeof(float) * P * P);
+	int8_t *labels = malloc(geom->n_labels);
+	int ret = 0;
+	if (!block || !heights || !labels) {
+		ret = -ENOMEM;
+		goto out;
+	}
+	int32_t *parent = block + E * E, *residuals = block + 2 * E * E;
+	relief_qgrid_get_patch(&p->q[l], geom, px, py, block);
+	const double q2 = 2.0 * p->lay.delta[l];
+	double hmin = INFINITY, hmax = -INFINITY;
+	for (uint32_t y = 0; y < P; y++)
+		for (uint32_t x = 0; x < P; x++) {
+			double h = q2 * block[(y + 1) * E + x + 1];
+			heights[y * P + x] = (float)h;
+			hmin = fmin(hmin, h);
+			hmax = fmax(hmax, h);
+		}
+	uint64_t valid_count;
+	double err = relief_patch_error(&p->lay, l, px, py, heights, &p->orig, &valid_count);
+	if (valid_count == 0) {
+		r->flags = RELIEF_PATCH_EMPTY;
+		goto out;
+	}
+	r->height_min = float_down(hmin);
+	r->height_max = float_up(hmax);
+	r->error = float_up(err);
+	relief_block_errors(&p->lay, heights, p->eps + id * relief_block_errors_per_patch(P));
+
+	/* Validity mask at this level's samples. */
+	const uint32_t step = 1u << (p->lay.levels - 1 - l);
+	uint8_t *bits = p->mask_bits + id * relief_mask_bytes(P);
+	bool partial = false;
+	for (uint32_t y = 0; y < P; y++)
+		for (uint32_t x = 0; x < P; x++) {
+			uint64_t X = ((uint64_t)px * (P - 1) + x) * step, Y = ((uint64_t)py * (P - 1) + y) * step;
+			bool v = X < p->dem->width && Y < p->dem->height && p->dem->valid[Y * p->dem->width + X];
+			if (v)
+				bits[(y * P + x) / 8] |= (uint8_t)(1u << ((y * P + x) % 8));
+			else
+				partial = true;
+		}
+	if (partial)
+		r->flags |= RELIEF_PATCH_MASKED;
+
+	if (l == 0) {
+		relief_root_analyse(geom, block, residuals);
+	} else {
+		relief_qgrid_get_patch(&p->q[l - 1], geom, px / 2, py / 2, parent);
+		ret = relief_patch_analyse(geom, p->lay.ratio, (px & 1) | ((py & 1) << 1), parent, block, labels, residuals);
+		if (ret < 0)
+			goto out;
+	}
+	size_t size;
+	if ((ret = relief_patch_encode(geom, l == 0, labels, residuals, &p->stream[id], &size)) < 0)
+		goto out;
+	if (size > UINT32_MAX) {
+		ret = -EOVERFLOW;
+		goto out;
+	}
+	r->size = (uint32_t)size;
+	r->crc = relief_crc32c(0, p->stream[id], size);
+out:
+	free(block);
+	free(heights);
+	free(labels);
+	if (ret == 0 && p->opts->progress) {
+		pthread_mutex_lock(&p->lock);
+		p->done++;
+		p->bytes_done += r->size;
+		p->opts->progress(p->opts->progress_data, p->done, p->lay.patch_count, p->bytes_done);
+		pthread_mutex_unlock(&p->lock);
+	}
+	return ret;
+}
+
+static uint64_t align8(uint64_t v)
+{
+	return (v + 7) & ~(uint64_t)7;
+}
+
+static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct relief_pack_stats *st)
+{
+	const struct relief_dem *dem = p->dem;
+	const uint32_t n = p->lay.patch_count, P = p->lay.geom.P;
+	const size_t be_per = relief_block_errors_per_patch(P), mb = relief_mask_bytes(P);
+	struct relief_header h = {
+		.version = RELIEF_FORMAT_VERSION, .patch_size = P, .levels = p->lay.levels, .ratio = p->lay.ratio,
+		.block_cells = RELIEF_BLOCK_CELLS, .width = dem->width, .height = dem->height, .size = p->lay.size,
+		.source_units = dem->source_units, .patch_count = n, .tolerance = p->lay.tolerance,
+		.origin_x = dem->origin_x, .origin_y = dem->origin_y, .spacing_x = dem->spacing_x,
+		.spacing_y = dem->spacing_y,
+	};
+	memcpy(h.delta, p->lay.delta, sizeof(h.delta));
+	double hmin = INFINITY, hmax = -INFINITY;
+	for (size_t i = 0; i < (size_t)dem->width * dem->height; i++)
+		if (dem->valid[i]) {
+			h.valid_samples++;
+			hmin = fmin(hmin, dem->heights[i]);
+			hmax = fmax(hmax, dem->heights[i]);
+		}
+	h.height_min = hmin;
+	h.height_max = hmax;
+	uint64_t data_size = 0;
+	for (uint32_t id = 0; id < n; id++) {
+		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
+			p->rec[id].mask_index = h.mask_count++;
+		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY)) {
+			p->rec[id].offset = data_size;
+			data_size += p->rec[id].size;
+		}
+		st->empty_patches += !!(p->rec[id].flags & RELIEF_PATCH_EMPTY);
+	}
+	st->masked_patches = h.mask_count;
+	st->stream_bytes = data_size;
+	size_t crs_len = dem->crs_wkt ? strlen(dem->crs_wkt) : 0;
+	h.index_offset = RELIEF_HEADER_SIZE;
+	h.block_errors_offset = align8(h.index_offset + (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
+	h.masks_offset = align8(h.block_errors_offset + (uint64_t)n * be_per * 4);
+	h.crs_offset = align8(h.masks_offset + (uint64_t)h.mask_count * mb);
+	h.crs_size = (uint32_t)crs_len;
+	h.data_offset = align8(h.crs_offset + crs_len);
+	h.data_size = data_size;
+	h.file_size = h.data_offset + data_size;
+
+	uint8_t *img = calloc(1, h.file_size);
+	if (!img)
+		return -ENOMEM;
+	for (uint32_t id = 0; id < n; id++) {
+		relief_record_write(&p->rec[id], img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE);
+		uint8_t *be = img + h.block_errors_offset + (uint64_t)id * be_per * 4;
+		for (size_t i = 0; i < be_per; i++)
+			le_put_f32(be + 4 * i, p->eps[id * be_per + i]);
+		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
+			memcpy(img + h.masks_offset + (uint64_t)p->rec[id].mask_index * mb, p->mask_bits + id * mb, mb);
+		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY))
+			memcpy(img + h.data_offset + p->rec[id].offset, p->stream[id], p->rec[id].size);
+	}
+	if (crs_len)
+		memcpy(img + h.crs_offset, dem->crs_wkt, crs_len);
+	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
+	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)n * be_per * 4);
+	h.masks_crc = relief_crc32c(0, img + h.masks_offset, (uint64_t)h.mask_count * mb);
+	h.crs_crc = relief_crc32c(0, img + h.crs_offset, crs_len);
+	relief_header_write(&h, img);
+	*out = img;
+	*out_size = h.file_size;
+	st->bytes = h.file_size;
+	return 0;
+}
+
+static int check_dem(const struct relief_dem *d)
+{
+	if (!d->width || !d->height || !d->heights || !d->valid)
+		return -EINVAL;
+	if (!(d->spacing_x > 0) || !(d->spacing_y > 0) || !isfinite(d->spacing_x) || !isfinite(d->spacing_y) ||
+	    !isfinite(d->origin_x) || !isfinite(d->origin_y))
+		return -EINVAL;
+	return 0;
+}
+
+int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_options *opts,
+                       uint8_t **out, size_t *out_size, struct relief_pack_stats *stats)
+{
+	int ret = check_dem(dem);
+	if (ret < 0)
+		return ret;
+	struct packer *p = calloc(1, sizeof(*p));
+	if (!p)
+		return -ENOMEM;
+	pthread_mutex_init(&p->lock, NULL);
+	p->dem = dem;
+	p->opts = opts;
+	struct relief_pack_stats st = { 0 };
+	uint32_t levels = relief_layout_levels_for(opts->patch, dem->width, dem->height);
+	if (levels > RELIEF_MAX_LEVELS || (ret = relief_layout_init(&p->lay, opts->patch, levels, opts->ratio,
+	                                                            opts->tolerance)) < 0) {
+		ret = -EINVAL;
+		goto out;
+	}
+	double hmax = 0;
+	uint64_t valid = 0;
+	for (size_t i = 0; i < (size_t)dem->width * dem->height; i++)
+		if (dem->valid[i]) {
+			if (!isfinite(dem->heights[i])) {
+				ret = -EINVAL;
+				goto out;
+			}
+			hmax = fmax(hmax, fabs(dem->heights[i]));
+			valid++;
+		}
+	if (!valid) {
+		ret = -ENODATA;
+		goto out;
+	}
+	if (hmax / (2.0 * p->lay.tolerance) >= (double)(1 << 24)) {
+		ret = -ERANGE;
+		goto out;
+	}
+	const uint32_t S = p->lay.size, n = p->lay.patch_count, P = p->lay.geom.P;
+	p->orig = (struct relief_original){ dem->heights, dem->valid, dem->width, dem->height };
+	p->filled = malloc(sizeof(float) * S * S);
+	p->rec = calloc(n, sizeof(*p->rec));
+	p->stream = calloc(n, sizeof(*p->stream));
+	p->eps = calloc((size_t)n * relief_block_errors_per_patch(P), sizeof(float));
+	p->mask_bits = calloc((size_t)n, relief_mask_bytes(P));
+	if (!p->filled || !p->rec || !p->stream || !p->eps || !p->mask_bits) {
+		ret = -ENOMEM;
+		goto out;
+	}
+	if ((ret = relief_fill(dem->heights, dem->valid, dem->width, dem->height, S, p->filled)) < 0)
+		goto out;
+	for (uint32_t l = 0; l < p->lay.levels; l++) {
+		if ((ret = relief_qgrid_init(&p->q[l], relief_level_size(&p->lay, l))) < 0)
+			goto out;
+		p->level = l;
+		relief_parallel_for(p->q[l].size + 2, opts->threads, quantise_row, p);
+		measure_level_error(p, l);
+	}
+	if ((ret = relief_parallel_for(n, opts->threads, encode_patch, p)) < 0)
+		goto out;
+	st.levels = p->lay.levels;
+	st.patches = n;
+	memcpy(st.max_error, p->level_err, sizeof(st.max_error));
+	if ((ret = assemble(p, out, out_size, &st)) < 0)
+		goto out;
+	if (stats)
+		*stats = st;
+out:
+	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
+		relief_qgrid_finish(&p->q[l]);
+	if (p->stream)
+		for (uint32_t id = 0; id < p->lay.patch_count; id++)
+			free(p->stream[id]);
+	free(p->stream);
+	free(p->filled);
+	free(p->rec);
+	free(p->eps);
+	free(p->mask_bits);
+	pthread_mutex_destroy(&p->lock);
+	free(p);
+	return ret;
+}
+
+int relief_pack_write(const char *path, const uint8_t *data, size_t size)
+{
+	size_t n = strlen(path);
+	char *tmp = malloc(n + 16);
+	if (!tmp)
+		return -ENOMEM;
+	snprintf(tmp, n + 16, "%s.tmpXXXXXX", path);
+	int fd = mkostemp(tmp, O_CLOEXEC);
+	if (fd < 0) {
+		int e = errno;
+		free(tmp);
+		return -e;
+	}
+	int ret = 0;
+	size_t off = 0;
+	while (off < size) {
+		ssize_t w = write(fd, data + off, size - off);
+		if (w < 0) {
+			if (errno == EINTR)
+				continue;
+			ret = -errno;
+			break;
+		}
+		off += (size_t)w;
+	}
+	if (ret == 0 && fchmod(fd, 0644) < 0)
+		ret = -errno;
+	if (ret == 0 && fsync(fd) < 0)
+		ret = -errno;
+	if (close(fd) < 0 && ret == 0)
+		ret = -errno;
+	if (ret == 0 && rename(tmp, path) < 0)
+		ret = -errno;
+	if (ret < 0)
+		unlink(tmp);
+	free(tmp);
+	return ret;
+}

@@ -1,0 +1,34 @@
+/* Building a .relief image from an elevation model: pyramid by decimation, hole filling,
+ * per-level quantisation, patch coding, error bounds, container assembly. */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "dem.h"
+#include "layout.h"
+
+struct relief_pack_options {
+	uint32_t patch;     /* 65, 129 or 257 */
+	uint32_t ratio;     /* 2 or 3 */
+	double tolerance;   /* delta_L, metres */
+	unsigned threads;   /* 0 = every core */
+	/* Called (from any worker thread, serialised) after each patch. */
+	void (*progress)(void *data, uint32_t done, uint32_t total, uint64_t bytes);
+	void *progress_data;
+};
+
+struct relief_pack_stats {
+	uint32_t levels, patches, empty_patches, masked_patches;
+	uint64_t bytes, stream_bytes;
+	/* Largest |original - reconstruction| per level over valid samples, measured. */
+	double max_error[RELIEF_MAX_LEVELS];
+};
+
+/* -EINVAL bad options or DEM, -ENODATA no valid sample, -ERANGE heights too large for the
+ * tolerance (|h| / (2 delta_L) must stay below 2^24), -ENOMEM. */
+int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_options *opts,
+                       uint8_t **out, size_t *out_size, struct relief_pack_stats *stats);
+/* Writes atomically: a temporary file in the same folder, fsync, rename. An existing file
+ * at `path` stays intact if anything fails. */
+int relief_pack_write(const char *path, const uint8_t *data, size_t size);

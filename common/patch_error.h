@@ -1,0 +1,52 @@
+/* Error bounds of a reconstructed patch (docs/codec.md §Errors).
+ *
+ * The surface drawn for a patch is a triangulation of its samples in which the diagonal
+ * of each cell is the tessellator's choice. Both bounds below hold for either diagonal in
+ * every cell:
+ *
+ * Err(P): the largest |surface(s) - h(s)| over the valid full-resolution samples s in the
+ *   patch's footprint, measured directly against the original (not through the paper's
+ *   recursion Err_Int + max Err_Appr(child) + delta_l, which it never exceeds). It already
+ *   contains the patch's quantisation error.
+ *
+ * Block error eps_d (d = 1..4): the largest vertical distance, over the block, between the
+ *   patch's full triangulation and the block triangulated on every 2^d-th sample. The
+ *   difference of two piecewise-linear surfaces peaks at a vertex of their overlay; for
+ *   grid-aligned triangulations those are the samples and the cell centres, where both
+ *   diagonal choices of both surfaces are evaluated. eps_d + Err(P) then bounds the
+ *   simplified block's distance to the original.
+ */
+#pragma once
+
+#include <stdint.h>
+
+#include "layout.h"
+
+/* Patch heights in metres over its P x P interior samples (row-major), built by the caller
+ * from the quantised block: h = 2 delta_l q. */
+
+/* The full-resolution original: size_L-grid coordinates, only [0, w) x [0, h) exists. */
+struct relief_original {
+	const float *heights;   /* w x h, row-major */
+	const uint8_t *valid;   /* w x h, non-zero = valid */
+	uint32_t w, h;
+};
+
+/* Err(P) for patch (l, px, py); 0 when no valid sample lies in its footprint.
+ * *valid_count receives the number of valid original samples in the footprint. */
+double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py,
+                          const float *patch_heights, const struct relief_original *orig,
+                          uint64_t *valid_count);
+
+/* eps[(by * blocks + bx) * 4 + (d - 1)] for every block of the patch. */
+void relief_block_errors(const struct relief_layout *lay, const float *patch_heights, float *eps);
+
+/* Value of the triangulated cell with corners h00 (u=v=0), h10, h01, h11 at (u, v) in
+ * [0,1]^2, under the diagonal 00-11 (diag = 0) or 10-01 (diag = 1). */
+static inline double relief_cell_value(double h00, double h10, double h01, double h11, double u, double v, int diag)
+{
+	if (diag == 0)
+		return u >= v ? h00 + u * (h10 - h00) + v * (h11 - h10) : h00 + v * (h01 - h00) + u * (h11 - h01);
+	return u + v <= 1.0 ? h00 + u * (h10 - h00) + v * (h01 - h00)
+	                    : h11 + (1.0 - u) * (h01 - h11) + (1.0 - v) * (h10 - h11);
+}

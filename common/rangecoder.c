@@ -1,0 +1,114 @@
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rangecoder.h"
+
+void rc_encoder_init(struct rc_encoder *e)
+{
+	memset(e, 0, sizeof(*e));
+	e->range = 0xffffffffu;
+	e->cache_size = 1;
+}
+
+void rc_encoder_finish(struct rc_encoder *e)
+{
+	free(e->buf);
+	memset(e, 0, sizeof(*e));
+}
+
+static void put_byte(struct rc_encoder *e, uint8_t b)
+{
+	if (e->size == e->cap) {
+		size_t cap = e->cap ? e->cap * 2 : 4096;
+		uint8_t *nb = realloc(e->buf, cap);
+		if (!nb) {
+			e->oom = true;
+			return;
+		}
+		e->buf = nb;
+		e->cap = cap;
+	}
+	e->buf[e->size++] = b;
+}
+
+/* Carry propagation: bytes equal to 0xff are held back (cache_size) until a carry is known. */
+static void shift_low(struct rc_encoder *e)
+{
+	if ((uint32_t)e->low < 0xff000000u || (e->low >> 32) != 0) {
+		uint8_t carry = (uint8_t)(e->low >> 32);
+		uint8_t temp = e->cache;
+		do {
+			put_byte(e, (uint8_t)(temp + carry));
+			temp = 0xff;
+		} while (--e->cache_size != 0);
+		e->cache = (uint8_t)(e->low >> 24);
+	}
+	e->cache_size++;
+	e->low = (e->low & 0x00ffffffu) << 8;
+}
+
+void rc_encode_bit(struct rc_encoder *e, rc_prob *p, unsigned bit)
+{
+	uint32_t bound = (e->range >> RC_PROB_BITS) * *p;
+	if (!bit) {
+		e->range = bound;
+		*p = (rc_prob)(*p + (((1u << RC_PROB_BITS) - *p) >> RC_ADAPT_SHIFT));
+	} else {
+		e->low += bound;
+		e->range -= bound;
+		*p = (rc_prob)(*p - (*p >> RC_ADAPT_SHIFT));
+	}
+	while (e->range < (1u << 24)) {
+		e->range <<= 8;
+		shift_low(e);
+	}
+}
+
+void rc_encode_direct(struct rc_encoder *e, uint32_t value, unsigned n)
+{
+	while (n--) {
+		e->range >>= 1;
+		if ((value >> n) & 1)
+			e->low += e->range;
+		while (e->range < (1u << 24)) {
+			e->range <<= 8;
+			shift_low(e);
+		}
+	}
+}
+
+int rc_encoder_flush(struct rc_encoder *e)
+{
+	for (int i = 0; i < 5; i++)
+		shift_low(e);
+	return e->oom ? -ENOMEM : 0;
+}
+
+void rc_decoder_init(struct rc_decoder *d, const uint8_t *buf, size_t size)
+{
+	d->p = buf;
+	d->end = buf + size;
+	d->overrun = false;
+	d->range = 0xffffffffu;
+	d->code = 0;
+	for (int i = 0; i < 5; i++)
+		d->code = (d->code << 8) | rc_next_byte(d);
+}
+
+uint32_t rc_decode_direct(struct rc_decoder *d, unsigned n)
+{
+	uint32_t v = 0;
+	while (n--) {
+		d->range >>= 1;
+		uint32_t bit = d->code >= d->range;
+		if (bit)
+			d->code -= d->range;
+		v = (v << 1) | bit;
+		if (d->range < (1u << 24)) {
+			d->range <<= 8;
+			d->code = (d->code << 8) | rc_next_byte(d);
+		}
+	}
+	return v;
+}

@@ -1,0 +1,34 @@
+/* Elevation import through GDAL: GeoTIFF, SRTM .hgt, 16-bit PNG, Mapbox Terrain-RGB PNG,
+ * and raw int16/float32 (wrapped in a VRT). World coordinates follow docs/format.md:
+ * metres, x east, y north; projected CRSs keep their coordinates (scaled to metres),
+ * geographic CRSs get a local equirectangular projection, unreferenced rasters put their
+ * south-west sample at (0, 0). */
+#pragma once
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "dem.h"
+
+enum dem_encoding {
+	DEM_ENCODING_HEIGHT = 0,  /* band 1 is a height (after scale and offset) */
+	DEM_ENCODING_TERRAIN_RGB, /* Mapbox: h = -10000 + (R 65536 + G 256 + B) / 10 */
+};
+
+struct dem_import_options {
+	enum dem_encoding encoding;
+	bool has_scale, has_offset, has_spacing, has_nodata;
+	double scale, offset, spacing, nodata;
+	uint32_t units; /* enum relief_units of the values (after scale/offset) */
+	/* Raw input: width and height > 0 and a type ("int16" or "float32"). */
+	uint32_t raw_width, raw_height;
+	const char *raw_type;
+	bool raw_big_endian;
+};
+
+/* 0, or a negative errno with a one-line reason in err. */
+int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err,
+               size_t err_size);
+/* Mean Earth radius used by the local projection of geographic rasters (IUGG, metres). */
+#define DEM_EARTH_RADIUS 6371008.8
