@@ -3,6 +3,7 @@
 #include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,15 +27,6 @@ void relief_dem_finish(struct relief_dem *d)
 	free(d->crs_wkt);
 	free(d->raw16);
 	memset(d, 0, sizeof(*d));
-}
-
-/* Smallest float >= v: stored bounds must never round below what was measured. */
-static float float_up(double v)
-{
-	float f = (float)v;
-	if ((double)f < v)
-		f = nextafterf(f, INFINITY);
-	return f;
 }
 
 static float float_down(double v)
@@ -66,33 +58,88 @@ struct packer {
 	double level_err[RELIEF_MAX_LEVELS];
 };
 
-/* Quantises row y (in [-1, S]) of level p->level. Refined samples (both coordinates even)
- * refine the parent: q = k q_parent + r with r clamped to {-1, 0, 1}. For k = 2 the clamp
- * never acts (|h/(2 delta) - 2 q_parent| <= 1); for k = 3 it only acts at exact ties
- * (|.| = 1.5), where r = +-1 still gives |h - 2 delta q| = delta. */
+/* True when level-l sample (x, y) is an original, valid sample. */
+static inline bool level_valid(const struct packer *p, uint32_t l, int x, int y)
+{
+	if (x < 0 || y < 0)
+		return false;
+	uint64_t step = 1ull << (p->lay.levels - 1 - l), X = (uint64_t)x * step, Y = (uint64_t)y * step;
+	return X < p->dem->width && Y < p->dem->height && p->dem->valid[Y * p->dem->width + X];
+}
+
+static inline double level_height(const struct packer *p, uint32_t l, int x, int y)
+{
+	const uint32_t S = p->q[l].size, step = 1u << (p->lay.levels - 1 - l);
+	uint32_t cx = x < 0 ? 0 : (uint32_t)x >= S ? S - 1 : (uint32_t)x;
+	uint32_t cy = y < 0 ? 0 : (uint32_t)y >= S ? S - 1 : (uint32_t)y;
+	return p->filled[(size_t)cy * step * p->lay.size + (size_t)cx * step];
+}
+
+/* Level quantisation, pass 1: the refined samples (x, y even, inside), row 2*row2.
+ * Level 0 quantises every sample (ring included) of the hole-filled heights.
+ * Level l > 0 refines the parent: q = k q_parent + r, r clamped to {-1, 0, 1}. For k = 2
+ * the clamp never acts (|h/(2 delta) - 2 q_parent| <= 1); for k = 3 only at exact ties
+ * (|.| = 1.5), where r = +-1 still gives |h - 2 delta q| = delta. No-data samples take
+ * r = 0: their heights are never drawn, so they cost one cheap label. */
+static int quantise_refined(void *ctx, size_t row2)
+{
+	struct packer *p = ctx;
+	uint32_t l = p->level;
+	struct relief_qgrid *g = &p->q[l];
+	const uint32_t S = g->size;
+	const double inv = 1.0 / (2.0 * p->lay.delta[l]);
+	if (l == 0) {
+		int y = (int)row2 - 1; /* pass 1 does every row of the root level */
+		for (int x = -1; x <= (int)S; x++)
+			g->q[(size_t)(y + 1) * (S + 2) + x + 1] = (int32_t)llround(level_height(p, 0, x, y) * inv);
+		return 0;
+	}
+	const int32_t k = (int32_t)p->lay.ratio;
+	const struct relief_qgrid *pg = &p->q[l - 1];
+	int y = 2 * (int)row2;
+	for (int x = 0; x < (int)S; x += 2) {
+		int32_t qp = pg->q[(size_t)(y / 2 + 1) * (pg->size + 2) + x / 2 + 1], r = 0;
+		if (level_valid(p, l, x, y)) {
+			r = (int32_t)llround(level_height(p, l, x, y) * inv) - k * qp;
+			r = r < -1 ? -1 : r > 1 ? 1 : r;
+		}
+		g->q[(size_t)(y + 1) * (S + 2) + x + 1] = k * qp + r;
+	}
+	return 0;
+}
+
+/* Global bilinear prediction of a non-refined sample from the refined ones (index clamped
+ * at the grid's edge), the value no-data samples take. Any fixed rule keeps every patch's
+ * copy of a sample equal; this one makes most of their residuals 0. */
+static int32_t global_predict(const struct relief_qgrid *g, int x, int y)
+{
+	const int S = (int)g->size;
+	int x0 = x & 1 ? x - 1 : x, x1 = x & 1 ? x + 1 : x, y0 = y & 1 ? y - 1 : y, y1 = y & 1 ? y + 1 : y;
+	x0 = x0 < 0 ? 0 : x0; x1 = x1 > S - 1 ? S - 1 : x1;
+	y0 = y0 < 0 ? 0 : y0; y1 = y1 > S - 1 ? S - 1 : y1;
+	const int32_t *q = g->q;
+	size_t st = (size_t)S + 2;
+	int64_t sum = (int64_t)q[(y0 + 1) * st + x0 + 1] + q[(y0 + 1) * st + x1 + 1] + q[(y1 + 1) * st + x0 + 1] +
+	              q[(y1 + 1) * st + x1 + 1];
+	return (int32_t)((sum + 2) >> 2);
+}
+
+/* Pass 2 (levels > 0): every other sample of row y in [-1, S], ring included:
+ * q = round(h / (2 delta)) where valid, the global prediction where not. */
 static int quantise_row(void *ctx, size_t row)
 {
 	struct packer *p = ctx;
 	uint32_t l = p->level;
 	struct relief_qgrid *g = &p->q[l];
-	const uint32_t S = g->size, step = 1u << (p->lay.levels - 1 - l), full = p->lay.size;
+	const uint32_t S = g->size;
 	const double inv = 1.0 / (2.0 * p->lay.delta[l]);
-	const int32_t k = (int32_t)p->lay.ratio;
 	int y = (int)row - 1;
-	uint32_t cy = y < 0 ? 0 : (uint32_t)y >= S ? S - 1 : (uint32_t)y;
 	int32_t *out = g->q + row * (S + 2);
 	for (int x = -1; x <= (int)S; x++) {
-		uint32_t cx = x < 0 ? 0 : (uint32_t)x >= S ? S - 1 : (uint32_t)x;
-		double h = p->filled[(size_t)cy * step * full + (size_t)cx * step];
-		int32_t q = (int32_t)llround(h * inv);
-		if (l > 0 && x >= 0 && y >= 0 && x < (int)S && y < (int)S && !(x & 1) && !(y & 1)) {
-			const struct relief_qgrid *pg = &p->q[l - 1];
-			int32_t qp = pg->q[(size_t)(y / 2 + 1) * (pg->size + 2) + x / 2 + 1];
-			int32_t r = q - k * qp;
-			r = r < -1 ? -1 : r > 1 ? 1 : r;
-			q = k * qp + r;
-		}
-		out[x + 1] = q;
+		if (!(x & 1) && !(y & 1) && x >= 0 && y >= 0 && x < (int)S && y < (int)S)
+			continue; /* refined: pass 1 */
+		out[x + 1] = level_valid(p, l, x, y) ? (int32_t)llround(level_height(p, l, x, y) * inv)
+		                                     : global_predict(g, x, y);
 	}
 	return 0;
 }
@@ -126,7 +173,7 @@ static int encode_patch(void *ctx, size_t id)
 
 	/* block, parent block, residuals (the root codes all E*E values as residuals) */
 	int32_t *block = malloc(sizeof(int32_t) * E * E * 3);
-	float *heights = malloc(sizeof(float) * P * P);
+	double *heights = malloc(sizeof(double) * P * P);
 	int8_t *labels = malloc(geom->n_labels);
 	int ret = 0;
 	if (!block || !heights || !labels) {
@@ -140,7 +187,7 @@ static int encode_patch(void *ctx, size_t id)
 	for (uint32_t y = 0; y < P; y++)
 		for (uint32_t x = 0; x < P; x++) {
 			double h = q2 * block[(y + 1) * E + x + 1];
-			heights[y * P + x] = (float)h;
+			heights[y * P + x] = h;
 			hmin = fmin(hmin, h);
 			hmax = fmax(hmax, h);
 		}
@@ -151,8 +198,8 @@ static int encode_patch(void *ctx, size_t id)
 		goto out;
 	}
 	r->height_min = float_down(hmin);
-	r->height_max = float_up(hmax);
-	r->error = float_up(err);
+	r->height_max = relief_float_up(hmax);
+	r->error = relief_float_up(err);
 	relief_block_errors(&p->lay, heights, p->eps + id * relief_block_errors_per_patch(P));
 
 	/* Validity mask at this level's samples. */
@@ -342,7 +389,12 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		if ((ret = relief_qgrid_init(&p->q[l], relief_level_size(&p->lay, l))) < 0)
 			goto out;
 		p->level = l;
-		relief_parallel_for(p->q[l].size + 2, opts->threads, quantise_row, p);
+		if (l == 0) {
+			relief_parallel_for(p->q[0].size + 2, opts->threads, quantise_refined, p);
+		} else {
+			relief_parallel_for((p->q[l].size + 1) / 2, opts->threads, quantise_refined, p);
+			relief_parallel_for(p->q[l].size + 2, opts->threads, quantise_row, p);
+		}
 		measure_level_error(p, l);
 	}
 	if ((ret = relief_parallel_for(n, opts->threads, encode_patch, p)) < 0)

@@ -3,7 +3,7 @@
 #include "patch_error.h"
 
 double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py,
-                          const float *ph, const struct relief_original *orig, uint64_t *valid_count)
+                          const double *ph, const struct relief_original *orig, uint64_t *valid_count)
 {
 	const uint32_t P = lay->geom.P, cells = P - 1;
 	const uint32_t step = 1u << (lay->levels - 1 - l); /* full-res samples per patch cell */
@@ -25,7 +25,7 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 			if (cx >= cells)
 				cx = cells - 1;
 			double u = (double)(X - x0) / step - (double)cx;
-			const float *c = ph + cy * P + cx;
+			const double *c = ph + cy * P + cx;
 			double h = orig->heights[oi];
 			for (int diag = 0; diag < 2; diag++) {
 				double s = relief_cell_value(c[0], c[1], c[P], c[P + 1], u, v, diag);
@@ -41,7 +41,7 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 
 /* Coarse (step s) triangulated value at fine sample offset (i, j) inside the block whose
  * top-left sample is b, at fractional fine offsets (fu, fv) within the fine cell. */
-static double coarse_value(const float *b, uint32_t P, uint32_t s, uint32_t i, uint32_t j, double fu, double fv,
+static double coarse_value(const double *b, uint32_t P, uint32_t s, uint32_t i, uint32_t j, double fu, double fv,
                            int diag)
 {
 	uint32_t ci = i / s, cj = j / s;
@@ -50,16 +50,16 @@ static double coarse_value(const float *b, uint32_t P, uint32_t s, uint32_t i, u
 	if (cj * s == RELIEF_BLOCK_CELLS)
 		cj--;
 	double u = ((double)(i - ci * s) + fu) / s, v = ((double)(j - cj * s) + fv) / s;
-	const float *c = b + (size_t)cj * s * P + ci * s;
+	const double *c = b + (size_t)cj * s * P + ci * s;
 	return relief_cell_value(c[0], c[s], c[(size_t)s * P], c[(size_t)s * P + s], u, v, diag);
 }
 
-void relief_block_errors(const struct relief_layout *lay, const float *ph, float *eps)
+void relief_block_errors(const struct relief_layout *lay, const double *ph, float *eps)
 {
 	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS;
 	for (uint32_t by = 0; by < lay->blocks; by++)
 		for (uint32_t bx = 0; bx < lay->blocks; bx++) {
-			const float *b = ph + (size_t)by * B * P + bx * B;
+			const double *b = ph + (size_t)by * B * P + bx * B;
 			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++) {
 				uint32_t s = 1u << d;
 				double worst = 0.0;
@@ -72,14 +72,14 @@ void relief_block_errors(const struct relief_layout *lay, const float *ph, float
 							if (i == B || j == B)
 								continue;
 							/* at the centre of fine cell (i, j), both fine diagonals */
-							const float *c = b + (size_t)j * P + i;
+							const double *c = b + (size_t)j * P + i;
 							double f0 = 0.5 * ((double)c[0] + c[P + 1]);
 							double f1 = 0.5 * ((double)c[1] + c[P]);
 							double cv = coarse_value(b, P, s, i, j, 0.5, 0.5, dc);
 							worst = fmax(worst, fmax(fabs(f0 - cv), fabs(f1 - cv)));
 						}
 					}
-				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] = (float)worst;
+				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] = relief_float_up(worst);
 			}
 		}
 }

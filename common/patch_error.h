@@ -18,9 +18,19 @@
  */
 #pragma once
 
+#include <math.h>
 #include <stdint.h>
 
 #include "layout.h"
+
+/* Smallest float >= v: a bound stored as float never rounds below what was measured. */
+static inline float relief_float_up(double v)
+{
+	float f = (float)v;
+	if ((double)f < v)
+		f = nextafterf(f, INFINITY);
+	return f;
+}
 
 /* Patch heights in metres over its P x P interior samples (row-major), built by the caller
  * from the quantised block: h = 2 delta_l q. */
@@ -35,11 +45,11 @@ struct relief_original {
 /* Err(P) for patch (l, px, py); 0 when no valid sample lies in its footprint.
  * *valid_count receives the number of valid original samples in the footprint. */
 double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py,
-                          const float *patch_heights, const struct relief_original *orig,
+                          const double *patch_heights, const struct relief_original *orig,
                           uint64_t *valid_count);
 
 /* eps[(by * blocks + bx) * 4 + (d - 1)] for every block of the patch. */
-void relief_block_errors(const struct relief_layout *lay, const float *patch_heights, float *eps);
+void relief_block_errors(const struct relief_layout *lay, const double *patch_heights, float *eps);
 
 /* Value of the triangulated cell with corners h00 (u=v=0), h10, h01, h11 at (u, v) in
  * [0,1]^2, under the diagonal 00-11 (diag = 0) or 10-01 (diag = 1). */

@@ -23,7 +23,8 @@ static void pack_usage(FILE *f)
 		"      --ratio K        tolerance growth per coarser level, 2 or 3 (default 2)\n"
 		"      --threads N      worker threads (default: every core)\n"
 		"  -q, --quiet          no progress bar and no summary\n"
-		IMPORT_OPTIONS_HELP);
+		IMPORT_OPTIONS_HELP
+		"Import options not given are read from INPUT.relief-import if it exists ([import] section).\n");
 }
 
 static double now(void)
@@ -123,6 +124,8 @@ int cmd_pack(int argc, char **argv)
 	if (!import_options_check("pack", &io))
 		return EXIT_USAGE;
 	const char *in = argv[optind], *out = argv[optind + 1];
+	if (import_sidecar_merge("pack", in, &io) < 0)
+		return EXIT_USAGE;
 
 	char err[512];
 	struct relief_dem dem;

@@ -18,6 +18,7 @@ enum dem_encoding {
 
 struct dem_import_options {
 	enum dem_encoding encoding;
+	bool has_encoding, has_units;
 	bool has_scale, has_offset, has_spacing, has_nodata;
 	double scale, offset, spacing, nodata;
 	uint32_t units; /* enum relief_units of the values (after scale/offset) */

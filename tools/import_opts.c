@@ -1,5 +1,9 @@
+#include <errno.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include <ini.h>
 
 #include "cli.h"
 #include "format.h"
@@ -9,6 +13,7 @@ bool import_option(const char *cmd, int c, const char *arg, struct dem_import_op
 {
 	switch (c) {
 	case OPT_ENCODING:
+		o->has_encoding = true;
 		if (!strcmp(arg, "height"))
 			o->encoding = DEM_ENCODING_HEIGHT;
 		else if (!strcmp(arg, "terrain-rgb"))
@@ -40,6 +45,7 @@ bool import_option(const char *cmd, int c, const char *arg, struct dem_import_op
 		}
 		return true;
 	case OPT_UNITS:
+		o->has_units = true;
 		if (!strcmp(arg, "m"))
 			o->units = RELIEF_UNITS_METRES;
 		else if (!strcmp(arg, "ft"))
@@ -79,4 +85,58 @@ bool import_options_check(const char *cmd, const struct dem_import_options *o)
 		return false;
 	}
 	return true;
+}
+
+struct sidecar {
+	const char *cmd, *path;
+	struct dem_import_options o;
+	char bad_key[64];
+};
+
+static int sidecar_handler(void *user, const char *section, const char *name, const char *value)
+{
+	static const struct { const char *key; int code; } keys[] = {
+		{ "encoding", OPT_ENCODING }, { "scale", OPT_SCALE }, { "offset", OPT_OFFSET },
+		{ "spacing", OPT_SPACING }, { "units", OPT_UNITS }, { "nodata", OPT_NODATA },
+	};
+	struct sidecar *sc = user;
+	if (strcmp(section, "import") == 0)
+		for (size_t i = 0; i < sizeof(keys) / sizeof(keys[0]); i++)
+			if (strcmp(name, keys[i].key) == 0)
+				return import_option(sc->cmd, keys[i].code, value, &sc->o) ? 1 : 0;
+	snprintf(sc->bad_key, sizeof(sc->bad_key), "[%.20s] %.30s", section, name);
+	return 0;
+}
+
+int import_sidecar_merge(const char *cmd, const char *input, struct dem_import_options *o)
+{
+	size_t n = strlen(input) + 16;
+	char *path = malloc(n);
+	if (!path)
+		return -ENOMEM;
+	snprintf(path, n, "%s.relief-import", input);
+	FILE *f = fopen(path, "re");
+	if (!f) {
+		int e = errno;
+		free(path);
+		return e == ENOENT ? 0 : -e;
+	}
+	struct sidecar sc = { .cmd = cmd, .path = path };
+	int line = ini_parse_file(f, sidecar_handler, &sc);
+	fclose(f);
+	if (line != 0) {
+		fprintf(stderr, "relief %s: %s: line %d: %s\n", cmd, path, line,
+		        sc.bad_key[0] ? "unknown section or key" : "invalid line or value");
+		free(path);
+		return -EINVAL;
+	}
+	free(path);
+	const struct dem_import_options *s = &sc.o;
+	if (!o->has_encoding && s->has_encoding) { o->encoding = s->encoding; o->has_encoding = true; }
+	if (!o->has_units && s->has_units) { o->units = s->units; o->has_units = true; }
+	if (!o->has_scale && s->has_scale) { o->scale = s->scale; o->has_scale = true; }
+	if (!o->has_offset && s->has_offset) { o->offset = s->offset; o->has_offset = true; }
+	if (!o->has_spacing && s->has_spacing) { o->spacing = s->spacing; o->has_spacing = true; }
+	if (!o->has_nodata && s->has_nodata) { o->nodata = s->nodata; o->has_nodata = true; }
+	return 0;
 }

@@ -35,5 +35,10 @@ enum {
 
 /* Handles one import option (c >= OPT_ENCODING). Returns false after printing an error. */
 bool import_option(const char *cmd, int c, const char *arg, struct dem_import_options *o);
+/* Sidecar: INPUT.relief-import, an INI file with an [import] section whose keys are the
+ * long option names above (encoding, scale, offset, spacing, units, nodata). Values the
+ * command line did not set are taken from it. Returns 0 when there is no sidecar, -EINVAL
+ * (after printing the line and key) when it is malformed. */
+int import_sidecar_merge(const char *cmd, const char *input, struct dem_import_options *o);
 /* Checks option combinations after parsing. */
 bool import_options_check(const char *cmd, const struct dem_import_options *o);

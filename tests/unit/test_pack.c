@@ -1,0 +1,350 @@
+/* The codec's promises, checked exhaustively on the bundled real DEMs at 0.1, 0.5, 1 and
+ * 4 m: every valid sample of every level within delta_l of the original; neighbouring
+ * patches agree bit for bit on shared samples; Err(P) and the block errors bound what
+ * they claim to (checked with an independent evaluator of the triangulated surfaces);
+ * packing is deterministic across thread counts; no-data stays no-data. */
+#include <errno.h>
+#include <math.h>
+
+#include "../data_load.h"
+#include "decode.h"
+#include "format.h"
+#include "pack.h"
+
+static uint32_t rng_state = 777;
+static double rnd(void)
+{
+	rng_state ^= rng_state << 13;
+	rng_state ^= rng_state >> 17;
+	rng_state ^= rng_state << 5;
+	return (rng_state & 0xffffff) / (double)0x1000000;
+}
+
+/* Piecewise-linear value at (u, v) in a cell with corners z00, z10, z01, z11, found by
+ * barycentric coordinates in whichever triangle contains the point (diag 0: 00-11). */
+static double tri_eval(const double tri[3][3], double u, double v, bool *inside)
+{
+	double x1 = tri[1][0] - tri[0][0], y1 = tri[1][1] - tri[0][1];
+	double x2 = tri[2][0] - tri[0][0], y2 = tri[2][1] - tri[0][1];
+	double det = x1 * y2 - x2 * y1;
+	double a = ((u - tri[0][0]) * y2 - x2 * (v - tri[0][1])) / det;
+	double b = (x1 * (v - tri[0][1]) - (u - tri[0][0]) * y1) / det;
+	*inside = a >= -1e-12 && b >= -1e-12 && a + b <= 1 + 1e-12;
+	return tri[0][2] + a * (tri[1][2] - tri[0][2]) + b * (tri[2][2] - tri[0][2]);
+}
+
+static double surface(double z00, double z10, double z01, double z11, double u, double v, int diag)
+{
+	double c00[3] = { 0, 0, z00 }, c10[3] = { 1, 0, z10 }, c01[3] = { 0, 1, z01 }, c11[3] = { 1, 1, z11 };
+	double t[2][3][3];
+	const double *(*pick)[3] = NULL;
+	(void)pick;
+	const double *list[2][3];
+	if (diag == 0) {
+		const double *a[3] = { c00, c10, c11 }, *b[3] = { c00, c11, c01 };
+		memcpy(list[0], a, sizeof(a));
+		memcpy(list[1], b, sizeof(b));
+	} else {
+		const double *a[3] = { c00, c10, c01 }, *b[3] = { c10, c11, c01 };
+		memcpy(list[0], a, sizeof(a));
+		memcpy(list[1], b, sizeof(b));
+	}
+	for (int k = 0; k < 2; k++)
+		for (int i = 0; i < 3; i++)
+			memcpy(t[k][i], list[k][i], sizeof(double) * 3);
+	bool in;
+	double r = tri_eval(t[0], u, v, &in);
+	if (in)
+		return r;
+	r = tri_eval(t[1], u, v, &in);
+	assert_true(in);
+	return r;
+}
+
+struct packed {
+	struct relief_dem dem;
+	uint8_t *img;
+	size_t size;
+	struct relief_file *f;
+};
+
+static void pack(struct packed *p, enum test_dem d, double tol, uint32_t ratio, uint32_t patch, unsigned threads)
+{
+	struct relief_pack_options o = { .patch = patch, .ratio = ratio, .tolerance = tol, .threads = threads };
+	struct relief_pack_stats st;
+	assert_int_equal(relief_pack_memory(&p->dem, &o, &p->img, &p->size, &st), 0);
+	char err[256];
+	if (relief_file_open_memory(p->img, p->size, &p->f, err, sizeof(err)) < 0)
+		fail_msg("%s at %g m: %s", test_dem_name(d), tol, err);
+}
+
+static void unpack(struct packed *p)
+{
+	relief_file_close(p->f);
+	free(p->img);
+	p->f = NULL;
+	p->img = NULL;
+}
+
+/* Walks the tree like the GPU decoder will: each child from its parent patch's own block. */
+static int32_t **decode_tree(const struct relief_file *f)
+{
+	const struct relief_layout *lay = &f->layout;
+	const size_t EE = (size_t)lay->geom.E * lay->geom.E;
+	int32_t **blocks = calloc(lay->levels, sizeof(*blocks));
+	struct relief_decoder dec;
+	assert_int_equal(relief_decoder_init(&dec, f), 0);
+	for (uint32_t l = 0; l < lay->levels; l++) {
+		uint32_t side = 1u << l;
+		blocks[l] = malloc(sizeof(int32_t) * EE * side * side);
+		for (uint32_t py = 0; py < side; py++)
+			for (uint32_t px = 0; px < side; px++) {
+				const int32_t *parent = l ? blocks[l - 1] + ((py / 2) * (side / 2) + px / 2) * EE : NULL;
+				assert_int_equal(relief_decoder_patch(&dec, relief_patch_id(l, px, py), parent,
+				                                      blocks[l] + ((size_t)py * side + px) * EE), 0);
+			}
+	}
+	relief_decoder_finish(&dec);
+	return blocks;
+}
+
+static void check_file(struct packed *p, enum test_dem d, double tol)
+{
+	const struct relief_file *f = p->f;
+	const struct relief_layout *lay = &f->layout;
+	const uint32_t P = lay->geom.P, E = lay->geom.E;
+	const size_t EE = (size_t)E * E;
+	const struct relief_dem *dem = &p->dem;
+	int32_t **blocks = decode_tree(f);
+	double worst_ratio = 0;
+	uint64_t checked = 0;
+	float *eps = malloc(sizeof(float) * relief_block_errors_per_patch(P));
+	for (uint32_t l = 0; l < lay->levels; l++) {
+		const uint32_t side = 1u << l, step = 1u << (lay->levels - 1 - l);
+		const double delta = lay->delta[l], q2 = 2 * delta;
+		for (uint32_t py = 0; py < side; py++)
+			for (uint32_t px = 0; px < side; px++) {
+				uint32_t id = relief_patch_id(l, px, py);
+				struct relief_patch_record r;
+				relief_file_record(f, id, &r);
+				if (r.flags & RELIEF_PATCH_EMPTY)
+					continue;
+				const int32_t *b = blocks[l] + ((size_t)py * side + px) * EE;
+				/* 1. every valid sample within delta_l */
+				for (uint32_t y = 0; y < P; y++)
+					for (uint32_t x = 0; x < P; x++) {
+						uint64_t X = ((uint64_t)px * (P - 1) + x) * step, Y = ((uint64_t)py * (P - 1) + y) * step;
+						if (X >= dem->width || Y >= dem->height || !dem->valid[Y * dem->width + X])
+							continue;
+						double e = fabs(dem->heights[Y * dem->width + X] - q2 * b[(y + 1) * E + x + 1]);
+						if (e > delta * (1 + 1e-9))
+							fail_msg("%s tol %g level %u patch %u,%u sample %u,%u: error %.9g > %.9g",
+							         test_dem_name(d), tol, l, px, py, x, y, e, delta);
+						worst_ratio = fmax(worst_ratio, e / delta);
+						checked++;
+					}
+				/* 2. east and south neighbours agree on shared samples and rings */
+				if (px + 1 < side) {
+					const int32_t *n = b + EE;
+					struct relief_patch_record nr;
+					relief_file_record(f, id + 1, &nr);
+					if (!(nr.flags & RELIEF_PATCH_EMPTY))
+						for (uint32_t y = 0; y < E; y++) {
+							assert_int_equal(b[y * E + P], n[y * E + 1]);       /* x = P-1 / 0 */
+							assert_int_equal(b[y * E + P + 1], n[y * E + 2]);   /* ring / x = 1 */
+							assert_int_equal(b[y * E + P - 1], n[y * E + 0]);   /* x = P-2 / ring */
+						}
+				}
+				if (py + 1 < side) {
+					const int32_t *n = b + EE * side;
+					struct relief_patch_record nr;
+					relief_file_record(f, id + side, &nr);
+					if (!(nr.flags & RELIEF_PATCH_EMPTY))
+						for (uint32_t x = 0; x < E; x++) {
+							assert_int_equal(b[P * E + x], n[1 * E + x]);
+							assert_int_equal(b[(P + 1) * E + x], n[2 * E + x]);
+							assert_int_equal(b[(P - 1) * E + x], n[0 * E + x]);
+						}
+				}
+				/* 3. Err(P) bounds the surface (either diagonal) against every valid original sample */
+				double worst = 0;
+				for (uint64_t Y = (uint64_t)py * (P - 1) * step; Y <= (uint64_t)(py + 1) * (P - 1) * step && Y < dem->height; Y++)
+					for (uint64_t X = (uint64_t)px * (P - 1) * step; X <= (uint64_t)(px + 1) * (P - 1) * step && X < dem->width; X++) {
+						if (!dem->valid[Y * dem->width + X])
+							continue;
+						double gx = (double)X / step - (double)px * (P - 1), gy = (double)Y / step - (double)py * (P - 1);
+						uint32_t cx = gx >= P - 1 ? P - 2 : (uint32_t)gx, cy = gy >= P - 1 ? P - 2 : (uint32_t)gy;
+						const int32_t *c = b + (cy + 1) * E + cx + 1;
+						for (int diag = 0; diag < 2; diag++) {
+							double s = surface(q2 * c[0], q2 * c[1], q2 * c[E], q2 * c[E + 1], gx - cx, gy - cy, diag);
+							worst = fmax(worst, fabs(s - dem->heights[Y * dem->width + X]));
+						}
+					}
+				if (worst > r.error)
+					fail_msg("%s tol %g patch %u: measured %.9g exceeds Err(P) %.9g", test_dem_name(d), tol, id,
+					         worst, r.error);
+				assert_true(r.error <= worst * (1 + 1e-6) + 1e-6); /* and it is not loose */
+				assert_true(r.error >= delta * 0.5 || l == lay->levels - 1 || worst < delta);
+				/* 4. block errors: random points, all diagonal choices of both surfaces */
+				relief_file_block_errors(f, id, eps);
+				for (uint32_t by = 0; by < lay->blocks; by++)
+					for (uint32_t bx = 0; bx < lay->blocks; bx++)
+						for (uint32_t dd = 1; dd <= RELIEF_BLOCK_LEVELS; dd++) {
+							double e_stored = eps[(by * lay->blocks + bx) * 4 + dd - 1], found = 0;
+							uint32_t s = 1u << dd;
+							for (int t = 0; t < 24; t++) {
+								double u = rnd() * RELIEF_BLOCK_CELLS, v = rnd() * RELIEF_BLOCK_CELLS;
+								uint32_t fi = (uint32_t)u, fj = (uint32_t)v, ci = fi / s * s, cj = fj / s * s;
+								const int32_t *o = b + (by * RELIEF_BLOCK_CELLS + 1) * E + bx * RELIEF_BLOCK_CELLS + 1;
+								const int32_t *fc = o + fj * E + fi, *cc = o + cj * E + ci;
+								for (int df = 0; df < 2; df++)
+									for (int dc = 0; dc < 2; dc++) {
+										double fv = surface(q2 * fc[0], q2 * fc[1], q2 * fc[E], q2 * fc[E + 1], u - fi, v - fj, df);
+										double cv = surface(q2 * cc[0], q2 * cc[s], q2 * cc[s * E], q2 * cc[s * E + s],
+										                    (u - ci) / s, (v - cj) / s, dc);
+										found = fmax(found, fabs(fv - cv));
+									}
+							}
+							if (found > e_stored * (1 + 1e-6) + 1e-6)
+								fail_msg("%s tol %g patch %u block %u,%u d=%u: %.9g > stored %.9g", test_dem_name(d),
+								         tol, id, bx, by, dd, found, e_stored);
+						}
+			}
+	}
+	print_message("%s tol %g: %llu samples checked on %u levels, worst error %.4f delta, %zu bytes\n",
+	              test_dem_name(d), tol, (unsigned long long)checked, lay->levels, worst_ratio, p->size);
+	for (uint32_t l = 0; l < lay->levels; l++)
+		free(blocks[l]);
+	free(blocks);
+	free(eps);
+}
+
+static void bounds_for(enum test_dem d, uint32_t patch)
+{
+	static const double tols[] = { 0.1, 0.5, 1.0, 4.0 };
+	struct packed p = { 0 };
+	test_dem_load(d, &p.dem);
+	for (size_t i = 0; i < sizeof(tols) / sizeof(tols[0]); i++) {
+		pack(&p, d, tols[i], 2, patch, 0);
+		check_file(&p, d, tols[i]);
+		unpack(&p);
+	}
+	relief_dem_finish(&p.dem);
+}
+
+static void test_bounds_puget(void **state) { bounds_for(DEM_PUGET, 129); }
+static void test_bounds_alps(void **state) { bounds_for(DEM_ALPS, 129); }
+static void test_bounds_lux(void **state) { bounds_for(DEM_LUX, 65); }
+
+static void test_ratio3_and_patch_sizes(void **state)
+{
+	struct packed p = { 0 };
+	test_dem_load(DEM_ALPS, &p.dem);
+	pack(&p, DEM_ALPS, 0.5, 3, 65, 0);
+	check_file(&p, DEM_ALPS, 0.5);
+	unpack(&p);
+	pack(&p, DEM_ALPS, 1.0, 2, 257, 0);
+	check_file(&p, DEM_ALPS, 1.0);
+	unpack(&p);
+	relief_dem_finish(&p.dem);
+}
+
+static void test_deterministic(void **state)
+{
+	struct packed a = { 0 }, b = { 0 };
+	test_dem_load(DEM_ALPS, &a.dem);
+	pack(&a, DEM_ALPS, 1.0, 2, 129, 1);
+	b.dem = a.dem;
+	pack(&b, DEM_ALPS, 1.0, 2, 129, 2);
+	assert_int_equal(a.size, b.size);
+	assert_memory_equal(a.img, b.img, a.size);
+	unpack(&a);
+	unpack(&b);
+	relief_dem_finish(&a.dem);
+}
+
+/* No-data never becomes a height: the decoded mask equals the input's validity at every
+ * level, and decoded heights are NaN exactly there. */
+static void test_nodata_stays_nodata(void **state)
+{
+	struct packed p = { 0 };
+	test_dem_load(DEM_LUX, &p.dem);
+	uint64_t invalid = 0;
+	for (size_t i = 0; i < (size_t)p.dem.width * p.dem.height; i++)
+		invalid += !p.dem.valid[i];
+	assert_int_equal(invalid, 3942); /* the file's NoData cells, per its documentation */
+	pack(&p, DEM_LUX, 0.5, 2, 65, 0);
+	assert_true(p.f->hdr.valid_samples == 8550 - 3942);
+	for (uint32_t l = 0; l < p.f->hdr.levels; l++) {
+		uint32_t w, h, step = 1u << (p.f->hdr.levels - 1 - l);
+		relief_level_extent(&p.f->hdr, l, &w, &h);
+		float *hh = malloc(sizeof(float) * w * h);
+		uint8_t *m = malloc((size_t)w * h);
+		assert_int_equal(relief_decode_level(p.f, l, 0, hh, m), 0);
+		for (uint32_t y = 0; y < h; y++)
+			for (uint32_t x = 0; x < w; x++) {
+				uint8_t v = p.dem.valid[(size_t)y * step * p.dem.width + (size_t)x * step];
+				assert_int_equal(m[y * w + x], v);
+				assert_int_equal(isnan(hh[y * w + x]), !v);
+				if (v)
+					assert_true(hh[y * w + x] > 100 && hh[y * w + x] < 600); /* Luxembourg: 141-547 m */
+			}
+		free(hh);
+		free(m);
+	}
+	unpack(&p);
+	relief_dem_finish(&p.dem);
+}
+
+static void test_bad_inputs(void **state)
+{
+	struct relief_dem dem = { 0 };
+	uint8_t *img;
+	size_t size;
+	struct relief_pack_options o = { .patch = 129, .ratio = 2, .tolerance = 1.0 };
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), -EINVAL);
+	float h[4] = { 1, 2, 3, 4 };
+	uint8_t v[4] = { 0, 0, 0, 0 };
+	dem = (struct relief_dem){ .width = 2, .height = 2, .heights = h, .valid = v, .spacing_x = 1, .spacing_y = 1 };
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), -ENODATA);
+	v[0] = v[1] = v[2] = v[3] = 1;
+	h[2] = 1e5f;
+	o.tolerance = 1e-3;
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), -ERANGE);
+	o.tolerance = 1.0;
+	o.patch = 100;
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), -EINVAL);
+	o.patch = 65;
+	o.ratio = 4;
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), -EINVAL);
+	o.ratio = 2;
+	h[1] = NAN;
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), -EINVAL);
+	h[1] = 2;
+	/* A flat, tiny terrain (a sea) packs and decodes. */
+	h[0] = h[1] = h[2] = h[3] = 0;
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, NULL), 0);
+	struct relief_file *f;
+	char err[128];
+	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	float out[4];
+	assert_int_equal(relief_decode_level(f, 0, 1, out, NULL), 0);
+	for (int i = 0; i < 4; i++)
+		assert_true(out[i] == 0.0f);
+	relief_file_close(f);
+	free(img);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_bounds_puget),
+		cmocka_unit_test(test_bounds_alps),
+		cmocka_unit_test(test_bounds_lux),
+		cmocka_unit_test(test_ratio3_and_patch_sizes),
+		cmocka_unit_test(test_deterministic),
+		cmocka_unit_test(test_nodata_stays_nodata),
+		cmocka_unit_test(test_bad_inputs),
+	};
+	return cmocka_run_group_tests(tests, NULL, NULL);
+}

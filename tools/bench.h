@@ -1,0 +1,4 @@
+/* The `relief bench` modes; each prints what it measured, on what, with how many runs. */
+#pragma once
+
+int bench_codec(int argc, char **argv);
