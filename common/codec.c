@@ -198,21 +198,31 @@ int relief_root_reconstruct(const struct relief_patch_geom *g, const int32_t *re
 	return 0;
 }
 
-/* ---- entropy models ---- */
+/* ---- entropy models ----
+ *
+ * A residual d is one symbol of an adaptive 16-symbol model chosen by local activity,
+ * plus raw bits:
+ *   symbol 0: d = 0; symbols 2k+1 / 2k+2 (k = 0..6): d > 0 / d < 0 with |d| - 1 in
+ *   [2^(k-1), 2^k) (k = 0: |d| = 1), followed by k - 1 raw bits of |d| - 1 below its top
+ *   bit; symbol 15: escape for |d| > 64: a raw sign bit, then |d| - 65 as an adaptive
+ *   Elias-gamma code (exponent in unary with adaptive bits, mantissa raw).
+ * Labels are two adaptive binary decisions (zero?, sign) with the count of non-zero left
+ * and upper labels as context. */
 
 #define ACTIVITY_CONTEXTS 7
-#define MAX_EXP 28 /* magnitudes below 2^29 */
+#define MAX_EXP 28 /* escaped magnitudes below 65 + 2^29 */
+#define ESCAPE_SYMBOL 15
+#define ESCAPE_BASE 65
 
 struct residual_models {
-	rc_prob zero[ACTIVITY_CONTEXTS];
-	rc_prob sign[ACTIVITY_CONTEXTS];
-	rc_prob exp[ACTIVITY_CONTEXTS][MAX_EXP + 1];
-	rc_prob mant[ACTIVITY_CONTEXTS][MAX_EXP + 1];
+	struct rc_cdf16 sym[ACTIVITY_CONTEXTS];
+	rc_prob esc_exp[MAX_EXP + 1];
 };
 
+/* Labels: symbols 0, 1, 2 of a 16-symbol model for r = 0, +1, -1 (the unused symbols
+ * keep the minimum frequency, 13 / 2^14 of the range in all). */
 struct label_models {
-	rc_prob nonzero[3];
-	rc_prob sign[3];
+	struct rc_cdf16 sym[3];
 };
 
 static void models_init(rc_prob *p, size_t n)
@@ -221,18 +231,11 @@ static void models_init(rc_prob *p, size_t n)
 		p[i] = RC_PROB_INIT;
 }
 
-/* Local activity from the left and upper neighbours' magnitudes in the same plane. */
-static inline unsigned activity(uint32_t s)
+static void residual_models_init(struct residual_models *m)
 {
-	if (s < 3)
-		return s;
-	if (s <= 4)
-		return 3;
-	if (s <= 8)
-		return 4;
-	if (s <= 16)
-		return 5;
-	return 6;
+	for (int c = 0; c < ACTIVITY_CONTEXTS; c++)
+		rc_cdf16_init(&m->sym[c]);
+	models_init(m->esc_exp, MAX_EXP + 1);
 }
 
 static inline uint32_t mag(int32_t v)
@@ -240,64 +243,120 @@ static inline uint32_t mag(int32_t v)
 	return v < 0 ? (uint32_t)(-(int64_t)v) : (uint32_t)v;
 }
 
+/* Local activity bucket of s = |left| + |up| (each clamped to 64) in the same plane:
+ * 0, 1, 2, 3-4, 5-8, 9-16, 17+. A table, so that no branch depends on the data. */
+static const uint8_t activity_of[129] = {
+	0, 1, 2, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 5, 5, 5, 5,
+	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
+	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
+	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
+	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
+};
+
+static inline uint32_t clamped_mag(int32_t v)
+{
+	uint32_t m = mag(v);
+	return m > 64 ? 64 : m;
+}
+
 static inline unsigned plane_context(const int32_t *v, uint32_t w, uint32_t u, uint32_t row)
 {
 	uint32_t s = 0;
 	if (u)
-		s += mag(v[row * w + u - 1]);
+		s += clamped_mag(v[row * w + u - 1]);
 	if (row)
-		s += mag(v[(row - 1) * w + u]);
-	return activity(s > 1000000 ? 1000000 : s);
+		s += clamped_mag(v[(row - 1) * w + u]);
+	return activity_of[s];
 }
 
 static void encode_residual(struct rc_encoder *e, struct residual_models *m, unsigned c, int32_t d)
 {
-	rc_encode_bit(e, &m->zero[c], d != 0);
-	if (!d)
+	uint32_t v = mag(d);
+	if (v == 0) {
+		rc_encode_sym16(e, &m->sym[c], 0);
 		return;
-	rc_encode_bit(e, &m->sign[c], d < 0);
-	uint32_t v = mag(d); /* >= 1; code v with an adaptive Elias-gamma-like code */
-	unsigned k = 31 - (unsigned)__builtin_clz(v); /* v in [2^k, 2^(k+1)) */
-	for (unsigned i = 0; i < k; i++)
-		rc_encode_bit(e, &m->exp[c][i], 1);
-	if (k < MAX_EXP)
-		rc_encode_bit(e, &m->exp[c][k], 0);
-	if (k == 0)
-		return;
-	rc_encode_bit(e, &m->mant[c][k], (v >> (k - 1)) & 1);
-	if (k > 1)
-		rc_encode_direct(e, v & ((1u << (k - 1)) - 1), k - 1);
-}
-
-static int32_t decode_residual(struct rc_decoder *d, struct residual_models *m, unsigned c)
-{
-	if (!rc_decode_bit(d, &m->zero[c]))
-		return 0;
-	unsigned neg = rc_decode_bit(d, &m->sign[c]);
-	unsigned k = 0;
-	while (k < MAX_EXP && rc_decode_bit(d, &m->exp[c][k]))
-		k++;
-	uint32_t v = 1u << k;
-	if (k > 0) {
-		v |= rc_decode_bit(d, &m->mant[c][k]) << (k - 1);
-		if (k > 1)
-			v |= rc_decode_direct(d, k - 1);
 	}
-	return neg ? -(int32_t)v : (int32_t)v;
+	if (v < ESCAPE_BASE) {
+		uint32_t a = v - 1;
+		unsigned k = a ? 32 - (unsigned)__builtin_clz(a) : 0; /* a in [2^(k-1), 2^k) */
+		rc_encode_sym16(e, &m->sym[c], 2 * k + 1 + (d < 0));
+		if (k >= 2)
+			rc_encode_direct(e, a & ((1u << (k - 1)) - 1), k - 1);
+		return;
+	}
+	rc_encode_sym16(e, &m->sym[c], ESCAPE_SYMBOL);
+	rc_encode_direct(e, d < 0, 1);
+	uint32_t x = v - ESCAPE_BASE + 1; /* >= 1 */
+	unsigned k = 31 - (unsigned)__builtin_clz(x);
+	for (unsigned i = 0; i < k; i++)
+		rc_encode_bit(e, &m->esc_exp[i], 1);
+	if (k < MAX_EXP)
+		rc_encode_bit(e, &m->esc_exp[k], 0);
+	if (k)
+		rc_encode_direct(e, x & ((1u << k) - 1), k);
 }
 
-static void encode_plane(struct rc_encoder *e, struct residual_models *m, const int32_t *v, uint32_t w, uint32_t h)
+/* Symbol -> magnitude base and raw bit count (see the table at the top of this section). */
+static const uint8_t sym_bits[16] = { 0, 0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 0 };
+static const uint8_t sym_base[16] = { 0, 1, 1, 2, 2, 3, 3, 5, 5, 9, 9, 17, 17, 33, 33, 0 };
+
+static inline int32_t decode_residual(struct rc_decoder *d, struct residual_models *m, unsigned c)
+{
+	unsigned s = rc_decode_sym16(d, &m->sym[c]);
+	if (__builtin_expect(s != ESCAPE_SYMBOL, 1)) {
+		int32_t v = (int32_t)(sym_base[s] + rc_decode_bits16(d, sym_bits[s]));
+		return (s & 1) || s == 0 ? v : -v;
+	}
+	unsigned neg = rc_decode_direct(d, 1);
+	unsigned k = 0;
+	while (k < MAX_EXP && rc_decode_bit(d, &m->esc_exp[k]))
+		k++;
+	uint32_t x = (1u << k) | (k ? rc_decode_direct(d, k) : 0);
+	int32_t v = (int32_t)(x - 1 + ESCAPE_BASE);
+	return neg ? -v : v;
+}
+
+/* Two streams: row r of every plane (and of the labels) goes to stream r & 1, each stream
+ * with its own models. The decoder runs both in lockstep (row 2j at column u, then row
+ * 2j+1 at column u), so the two serial chains of range decoding overlap on the CPU. Every
+ * context is still available in that order: (r, u-1) is in the same stream, (r-1, u) was
+ * decoded one step earlier. Stream layout: u32 LE size of stream 0, stream 0, stream 1. */
+
+struct stream_models {
+	struct label_models labels;
+	struct residual_models res[3];
+};
+
+static void stream_models_init(struct stream_models *m)
+{
+	for (int c = 0; c < 3; c++)
+		rc_cdf16_init(&m->labels.sym[c]);
+	for (int i = 0; i < 3; i++)
+		residual_models_init(&m->res[i]);
+}
+
+static void encode_plane(struct rc_encoder e[2], struct stream_models m[2], int p, const int32_t *v, uint32_t w,
+                         uint32_t h)
 {
 	for (uint32_t row = 0; row < h; row++)
 		for (uint32_t u = 0; u < w; u++)
-			encode_residual(e, m, plane_context(v, w, u, row), v[row * w + u]);
+			encode_residual(&e[row & 1], &m[row & 1].res[p], plane_context(v, w, u, row), v[row * w + u]);
 }
 
-static void decode_plane(struct rc_decoder *d, struct residual_models *m, int32_t *v, uint32_t w, uint32_t h)
+static void decode_plane(struct rc_decoder d[2], struct stream_models m[2], int p, int32_t *v, uint32_t w,
+                         uint32_t h)
 {
-	for (uint32_t row = 0; row < h; row++)
+	uint32_t row = 0;
+	for (; row + 1 < h; row += 2) {
+		int32_t *a = v + row * w, *b = a + w;
+		for (uint32_t u = 0; u < w; u++) {
+			a[u] = decode_residual(&d[0], &m[0].res[p], plane_context(v, w, u, row));
+			b[u] = decode_residual(&d[1], &m[1].res[p], plane_context(v, w, u, row + 1));
+		}
+	}
+	if (row < h)
 		for (uint32_t u = 0; u < w; u++)
-			v[row * w + u] = decode_residual(d, m, plane_context(v, w, u, row));
+			v[row * w + u] = decode_residual(&d[0], &m[0].res[p], plane_context(v, w, u, row));
 }
 
 static inline unsigned label_context(const int8_t *l, uint32_t L, uint32_t i, uint32_t j)
@@ -305,77 +364,102 @@ static inline unsigned label_context(const int8_t *l, uint32_t L, uint32_t i, ui
 	return (i && l[j * L + i - 1] != 0) + (j && l[(j - 1) * L + i] != 0);
 }
 
+static inline int8_t decode_label(struct rc_decoder *d, struct label_models *lm, unsigned c)
+{
+	static const int8_t value[16] = { 0, 1, -1 }; /* other symbols only in corrupt streams */
+	return value[rc_decode_sym16(d, &lm->sym[c])];
+}
+
 int relief_patch_encode(const struct relief_patch_geom *g, bool root, const int8_t *labels,
                         const int32_t *residuals, uint8_t **out, size_t *out_size)
 {
-	struct rc_encoder e;
-	rc_encoder_init(&e);
-	struct residual_models *m = malloc(sizeof(*m) * 3);
+	struct rc_encoder e[2];
+	rc_encoder_init(&e[0]);
+	rc_encoder_init(&e[1]);
+	struct stream_models *m = malloc(sizeof(*m) * 2);
 	if (!m)
 		return -ENOMEM;
-	models_init((rc_prob *)m, sizeof(*m) * 3 / sizeof(rc_prob));
+	stream_models_init(&m[0]);
+	stream_models_init(&m[1]);
 	if (root) {
-		encode_plane(&e, &m[0], residuals, g->E, g->E);
+		encode_plane(e, m, 0, residuals, g->E, g->E);
 	} else {
-		struct label_models lm;
-		models_init((rc_prob *)&lm, sizeof(lm) / sizeof(rc_prob));
 		for (uint32_t j = 0; j < g->L; j++)
 			for (uint32_t i = 0; i < g->L; i++) {
 				int8_t r = labels[j * g->L + i];
 				unsigned c = label_context(labels, g->L, i, j);
-				rc_encode_bit(&e, &lm.nonzero[c], r != 0);
-				if (r)
-					rc_encode_bit(&e, &lm.sign[c], r < 0);
+				rc_encode_sym16(&e[j & 1], &m[j & 1].labels.sym[c], r == 0 ? 0 : r > 0 ? 1 : 2);
 			}
 		struct plane pl[3];
 		planes(g, pl);
 		const int32_t *v = residuals;
 		for (int p = 0; p < 3; p++) {
-			encode_plane(&e, &m[p], v, pl[p].w, pl[p].h);
+			encode_plane(e, m, p, v, pl[p].w, pl[p].h);
 			v += (size_t)pl[p].w * pl[p].h;
 		}
 	}
 	free(m);
-	int ret = rc_encoder_flush(&e);
-	if (ret < 0) {
-		rc_encoder_finish(&e);
-		return ret;
+	int ret = rc_encoder_flush(&e[0]);
+	if (ret == 0)
+		ret = rc_encoder_flush(&e[1]);
+	uint8_t *buf = NULL;
+	if (ret == 0 && e[0].size > UINT32_MAX)
+		ret = -EOVERFLOW;
+	if (ret == 0 && !(buf = malloc(4 + e[0].size + e[1].size)))
+		ret = -ENOMEM;
+	if (ret == 0) {
+		uint32_t n0 = (uint32_t)e[0].size;
+		buf[0] = (uint8_t)n0;
+		buf[1] = (uint8_t)(n0 >> 8);
+		buf[2] = (uint8_t)(n0 >> 16);
+		buf[3] = (uint8_t)(n0 >> 24);
+		memcpy(buf + 4, e[0].buf, e[0].size);
+		memcpy(buf + 4 + e[0].size, e[1].buf, e[1].size);
+		*out = buf;
+		*out_size = 4 + e[0].size + e[1].size;
 	}
-	*out = e.buf;
-	*out_size = e.size;
-	return 0;
+	rc_encoder_finish(&e[0]);
+	rc_encoder_finish(&e[1]);
+	return ret;
 }
 
 int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const uint8_t *buf, size_t size,
                                 int8_t *labels, int32_t *residuals)
 {
-	struct rc_decoder d;
-	rc_decoder_init(&d, buf, size);
-	struct residual_models *m = malloc(sizeof(*m) * 3);
+	if (size < 4)
+		return -EBADMSG;
+	uint32_t n0 = (uint32_t)buf[0] | (uint32_t)buf[1] << 8 | (uint32_t)buf[2] << 16 | (uint32_t)buf[3] << 24;
+	if (n0 > size - 4)
+		return -EBADMSG;
+	struct rc_decoder d[2];
+	rc_decoder_init(&d[0], buf + 4, n0);
+	rc_decoder_init(&d[1], buf + 4 + n0, size - 4 - n0);
+	struct stream_models *m = malloc(sizeof(*m) * 2);
 	if (!m)
 		return -ENOMEM;
-	models_init((rc_prob *)m, sizeof(*m) * 3 / sizeof(rc_prob));
+	stream_models_init(&m[0]);
+	stream_models_init(&m[1]);
 	if (root) {
-		decode_plane(&d, &m[0], residuals, g->E, g->E);
+		decode_plane(d, m, 0, residuals, g->E, g->E);
 	} else {
-		struct label_models lm;
-		models_init((rc_prob *)&lm, sizeof(lm) / sizeof(rc_prob));
-		for (uint32_t j = 0; j < g->L; j++)
-			for (uint32_t i = 0; i < g->L; i++) {
-				unsigned c = label_context(labels, g->L, i, j);
-				int8_t r = 0;
-				if (rc_decode_bit(&d, &lm.nonzero[c]))
-					r = rc_decode_bit(&d, &lm.sign[c]) ? -1 : 1;
-				labels[j * g->L + i] = r;
+		const uint32_t L = g->L;
+		uint32_t j = 0;
+		for (; j + 1 < L; j += 2)
+			for (uint32_t i = 0; i < L; i++) {
+				labels[j * L + i] = decode_label(&d[0], &m[0].labels, label_context(labels, L, i, j));
+				labels[(j + 1) * L + i] = decode_label(&d[1], &m[1].labels, label_context(labels, L, i, j + 1));
 			}
+		if (j < L)
+			for (uint32_t i = 0; i < L; i++)
+				labels[j * L + i] = decode_label(&d[0], &m[0].labels, label_context(labels, L, i, j));
 		struct plane pl[3];
 		planes(g, pl);
 		int32_t *v = residuals;
 		for (int p = 0; p < 3; p++) {
-			decode_plane(&d, &m[p], v, pl[p].w, pl[p].h);
+			decode_plane(d, m, p, v, pl[p].w, pl[p].h);
 			v += (size_t)pl[p].w * pl[p].h;
 		}
 	}
 	free(m);
-	return d.overrun ? -EBADMSG : 0;
+	return d[0].overrun || d[1].overrun ? -EBADMSG : 0;
 }

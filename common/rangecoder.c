@@ -65,12 +65,14 @@ void rc_encode_bit(struct rc_encoder *e, rc_prob *p, unsigned bit)
 	}
 }
 
+/* Raw bits go in chunks of up to 16: the range is split into 2^n equal parts. */
 void rc_encode_direct(struct rc_encoder *e, uint32_t value, unsigned n)
 {
-	while (n--) {
-		e->range >>= 1;
-		if ((value >> n) & 1)
-			e->low += e->range;
+	while (n) {
+		unsigned k = n > 16 ? 16 : n;
+		n -= k;
+		e->range >>= k;
+		e->low += (uint64_t)((value >> n) & ((1u << k) - 1)) * e->range;
 		while (e->range < (1u << 24)) {
 			e->range <<= 8;
 			shift_low(e);
@@ -99,16 +101,39 @@ void rc_decoder_init(struct rc_decoder *d, const uint8_t *buf, size_t size)
 uint32_t rc_decode_direct(struct rc_decoder *d, unsigned n)
 {
 	uint32_t v = 0;
-	while (n--) {
-		d->range >>= 1;
-		uint32_t bit = d->code >= d->range;
-		if (bit)
-			d->code -= d->range;
-		v = (v << 1) | bit;
-		if (d->range < (1u << 24)) {
+	while (n) {
+		unsigned k = n > 16 ? 16 : n;
+		n -= k;
+		d->range >>= k;
+		uint32_t part = d->code / d->range;
+		if (part >= (1u << k)) /* only in a corrupt stream */
+			part = (1u << k) - 1;
+		d->code -= part * d->range;
+		v = (v << k) | part;
+		while (d->range < (1u << 24)) {
 			d->range <<= 8;
 			d->code = (d->code << 8) | rc_next_byte(d);
 		}
 	}
 	return v;
+}
+
+void rc_cdf16_init(struct rc_cdf16 *m)
+{
+	for (unsigned i = 0; i < 16; i++)
+		m->c[i] = (int16_t)(i << (RC_CDF_BITS - 4));
+}
+
+void rc_encode_sym16(struct rc_encoder *e, struct rc_cdf16 *m, unsigned s)
+{
+	uint32_t r = e->range >> RC_CDF_BITS;
+	uint32_t lo = (uint32_t)m->c[s] * r;
+	uint32_t hi = s == 15 ? e->range : (uint32_t)m->c[s + 1] * r;
+	e->low += lo;
+	e->range = hi - lo;
+	while (e->range < (1u << 24)) {
+		e->range <<= 8;
+		shift_low(e);
+	}
+	rc_cdf16_update(m, s);
 }

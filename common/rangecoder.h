@@ -12,6 +12,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
 #define RC_PROB_BITS 11
 #define RC_PROB_INIT (1u << (RC_PROB_BITS - 1))
 #define RC_ADAPT_SHIFT 5
@@ -77,3 +81,94 @@ static inline unsigned rc_decode_bit(struct rc_decoder *d, rc_prob *p)
 }
 
 uint32_t rc_decode_direct(struct rc_decoder *d, unsigned n);
+
+/* Restores range >= 2^24 after a step that left range >= 2^8 (at most two byte shifts),
+ * without a data-dependent branch: two bytes are peeked and the shift count selects how
+ * many are used. Near the end of the buffer it falls back to the bounded loop. */
+static inline void rc_normalize2(struct rc_decoder *d)
+{
+	if (__builtin_expect(d->end - d->p >= 2, 1)) {
+		unsigned sh = (d->range < (1u << 24)) + (d->range < (1u << 16));
+		uint64_t c = ((uint64_t)d->code << 16 | (uint32_t)d->p[0] << 8 | d->p[1]) >> (8 * (2 - sh));
+		d->code = (uint32_t)c;
+		d->range <<= 8 * sh;
+		d->p += sh;
+		return;
+	}
+	while (d->range < (1u << 24)) {
+		d->range <<= 8;
+		d->code = (d->code << 8) | rc_next_byte(d);
+	}
+}
+
+/* n raw bits, n in [0, 16], with one division and no branch on the data. */
+static inline uint32_t rc_decode_bits16(struct rc_decoder *d, unsigned n)
+{
+	d->range >>= n;
+	uint32_t part = d->code / d->range;
+	uint32_t max = (1u << n) - 1;
+	part = part > max ? max : part; /* only a corrupt stream exceeds it */
+	d->code -= part * d->range;
+	rc_normalize2(d);
+	return part;
+}
+
+/* Adaptive 16-symbol model: a cumulative distribution with a fixed total of 2^14, so coding
+ * needs multiplications and a short search but no division. After each symbol s the CDF
+ * moves 1/2^RC_CDF_RATE of the way towards a target that puts (almost) all mass on s:
+ *   t[i] = 2i for i <= s, 2^14 - 2(16 - i) for i > s.
+ * Invariant (by induction, using floor rounding of the arithmetic shift): every symbol
+ * keeps a frequency >= 1, because the targets are spaced >= 2 apart and each c[i] moves
+ * monotonically towards t[i] without passing it. So every symbol stays codable.
+ * The total of 2^14 keeps every t - c within int16, so the update vectorises. */
+#define RC_CDF_BITS 14
+#define RC_CDF_RATE 5
+
+struct rc_cdf16 {
+	int16_t c[16]; /* c[0] = 0 < c[1] < ... < c[15] < 2^14 (the implicit c[16]) */
+};
+
+void rc_cdf16_init(struct rc_cdf16 *m);
+void rc_encode_sym16(struct rc_encoder *e, struct rc_cdf16 *m, unsigned s);
+
+static inline void rc_cdf16_update(struct rc_cdf16 *m, unsigned s)
+{
+	/* Branch-free over all 16 lanes so that the compiler emits SIMD code; lane 0 stays 0
+	 * because its target is 0 and it starts at 0. */
+	for (int i = 0; i < 16; i++) {
+		int16_t low = (int16_t)(2 * i), high = (int16_t)((1 << RC_CDF_BITS) - 2 * (16 - i));
+		int16_t mask = (int16_t)-(i > (int)s);
+		int16_t t = (int16_t)((low & ~mask) | (high & mask));
+		m->c[i] = (int16_t)(m->c[i] + ((int16_t)(t - m->c[i]) >> RC_CDF_RATE));
+	}
+}
+
+__attribute__((always_inline)) static inline unsigned rc_decode_sym16(struct rc_decoder *d, struct rc_cdf16 *m)
+{
+	uint32_t r = d->range >> RC_CDF_BITS;
+	/* c[i] * r <= code  <=>  c[i] <= code / r: one division, then a branch-free count
+	 * (c[0] = 0 always counts, so s = count - 1). A corrupt stream may give code >= range;
+	 * the quotient is clamped and the result is garbage, never out of bounds. */
+	uint32_t v = d->code / r;
+	int16_t vq = (int16_t)(v > 0x7fff ? 0x7fff : v);
+#ifdef __SSE2__
+	__m128i q = _mm_set1_epi16(vq);
+	__m128i gt0 = _mm_cmpgt_epi16(_mm_loadu_si128((const __m128i *)&m->c[0]), q);
+	__m128i gt1 = _mm_cmpgt_epi16(_mm_loadu_si128((const __m128i *)&m->c[8]), q);
+	/* c is increasing, so the lanes with c > v form a suffix: the first set bit of the
+	 * mask is lane s + 1 (none set: s = 15). */
+	unsigned mask = (unsigned)_mm_movemask_epi8(_mm_packs_epi16(gt0, gt1));
+	unsigned s = (unsigned)__builtin_ctz(mask | 0x10000u) - 1u;
+#else
+	unsigned s = 0;
+	for (int i = 1; i < 16; i++)
+		s += m->c[i] <= vq;
+#endif
+	uint32_t lo = (uint32_t)m->c[s] * r;
+	uint32_t hi = s == 15 ? d->range : (uint32_t)m->c[s + 1] * r;
+	d->code -= lo;
+	d->range = hi - lo;
+	rc_normalize2(d); /* a frequency of 1 leaves range >= 2^10 */
+	rc_cdf16_update(m, s);
+	return s;
+}
