@@ -167,7 +167,7 @@ static inline int32_t med(int32_t a, int32_t b, int32_t c)
 	return a + b - c;
 }
 
-static inline int32_t root_predict(const int32_t *q, uint32_t E, uint32_t x, uint32_t y)
+int32_t relief_root_predict(const int32_t *q, uint32_t E, uint32_t x, uint32_t y)
 {
 	if (y == 0)
 		return x ? q[x - 1] : 0;
@@ -180,7 +180,7 @@ void relief_root_analyse(const struct relief_patch_geom *g, const int32_t *q, in
 {
 	for (uint32_t y = 0; y < g->E; y++)
 		for (uint32_t x = 0; x < g->E; x++)
-			residuals[y * g->E + x] = q[y * g->E + x] - root_predict(q, g->E, x, y);
+			residuals[y * g->E + x] = q[y * g->E + x] - relief_root_predict(q, g->E, x, y);
 }
 
 int relief_root_reconstruct(const struct relief_patch_geom *g, const int32_t *residuals, int32_t *out)
@@ -190,7 +190,7 @@ int relief_root_reconstruct(const struct relief_patch_geom *g, const int32_t *re
 			int32_t d = residuals[y * g->E + x];
 			if (d <= -(1 << 29) || d >= (1 << 29))
 				return -EBADMSG;
-			int32_t v = root_predict(out, g->E, x, y) + d;
+			int32_t v = relief_root_predict(out, g->E, x, y) + d;
 			if (!q_ok(v))
 				return -EBADMSG;
 			out[y * g->E + x] = v;
@@ -462,4 +462,38 @@ int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, co
 	}
 	free(m);
 	return d[0].overrun || d[1].overrun ? -EBADMSG : 0;
+}
+
+static inline unsigned mask_context(const uint8_t *m, uint32_t P, uint32_t x, uint32_t y)
+{
+	return (x ? m[y * P + x - 1] : 1u) + 2u * (y ? m[(y - 1) * P + x] : 1u);
+}
+
+int relief_mask_encode(uint32_t P, const uint8_t *mask, uint8_t **out, size_t *out_size)
+{
+	struct rc_encoder e;
+	rc_encoder_init(&e);
+	rc_prob p[4] = { RC_PROB_INIT, RC_PROB_INIT, RC_PROB_INIT, RC_PROB_INIT };
+	for (uint32_t y = 0; y < P; y++)
+		for (uint32_t x = 0; x < P; x++)
+			rc_encode_bit(&e, &p[mask_context(mask, P, x, y)], mask[y * P + x] != 0);
+	int ret = rc_encoder_flush(&e);
+	if (ret < 0) {
+		rc_encoder_finish(&e);
+		return ret;
+	}
+	*out = e.buf;
+	*out_size = e.size;
+	return 0;
+}
+
+int relief_mask_decode(uint32_t P, const uint8_t *buf, size_t size, uint8_t *mask)
+{
+	struct rc_decoder d;
+	rc_decoder_init(&d, buf, size);
+	rc_prob p[4] = { RC_PROB_INIT, RC_PROB_INIT, RC_PROB_INIT, RC_PROB_INIT };
+	for (uint32_t y = 0; y < P; y++)
+		for (uint32_t x = 0; x < P; x++)
+			mask[y * P + x] = (uint8_t)rc_decode_bit(&d, &p[mask_context(mask, P, x, y)]);
+	return d.overrun ? -EBADMSG : 0;
 }

@@ -58,9 +58,16 @@ int relief_patch_reconstruct(const struct relief_patch_geom *g, uint32_t ratio, 
                              const int32_t *parent, const int8_t *labels, const int32_t *residuals,
                              int32_t *out);
 
-/* Root patch: residuals of the MED predictor (E*E of them). */
+/* Root patch: residuals of the MED predictor (E*E of them). relief_root_predict() is the
+ * prediction of value (x, y) (storage indices) from the values before it in raster order. */
+int32_t relief_root_predict(const int32_t *q, uint32_t E, uint32_t x, uint32_t y);
 void relief_root_analyse(const struct relief_patch_geom *g, const int32_t *q, int32_t *residuals);
 int relief_root_reconstruct(const struct relief_patch_geom *g, const int32_t *residuals, int32_t *out);
+
+/* Validity masks (P x P bytes, 0 or 1), coded with adaptive binary models whose context is
+ * the left and upper neighbours' validity. Decoding returns -EBADMSG on a truncated stream. */
+int relief_mask_encode(uint32_t P, const uint8_t *mask, uint8_t **out, size_t *out_size);
+int relief_mask_decode(uint32_t P, const uint8_t *buf, size_t size, uint8_t *mask);
 
 /* Entropy stage. A patch stream codes its labels (none for the root) then its residual
  * planes, with adaptive binary models whose contexts come only from symbols of the same

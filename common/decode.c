@@ -137,7 +137,11 @@ int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned th
 		for (uint32_t px = 0; px < side; px++) {
 			uint32_t id = relief_patch_id(level, px, py);
 			const int32_t *b = blocks + ((size_t)py * side + px) * E * E;
-			relief_file_mask(f, id, pmask);
+			if ((ret = relief_file_mask(f, id, pmask)) < 0) {
+				free(pmask);
+				free(blocks);
+				return ret;
+			}
 			for (uint32_t y = 0; y < P; y++) {
 				uint64_t gy = (uint64_t)py * (P - 1) + y;
 				if (gy >= h || (y == P - 1 && py + 1 < side))

@@ -13,7 +13,7 @@ struct relief_dem {
 	double origin_x, origin_y;
 	double spacing_x, spacing_y;
 	uint32_t source_units; /* enum relief_units */
-	char *crs_wkt;         /* NULL or "" when the source has no CRS */
+	char *crs_wkt;         /* WKT or PROJ string (OSRSetFromUserInput syntax); NULL or "": none */
 	int32_t *raw16;        /* NULL, or the source's 16-bit integer samples (for baselines) */
 };
 

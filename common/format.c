@@ -9,9 +9,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "codec.h"
 #include "crc32c.h"
 #include "format.h"
 #include "le.h"
+#include "patch_error.h"
 
 /* Header field offsets (docs/format.md). */
 enum {
@@ -20,13 +22,8 @@ enum {
 	H_TOL = 56, H_OX = 64, H_OY = 72, H_SX = 80, H_SY = 88, H_HMIN = 96, H_HMAX = 104, H_VALID = 112,
 	H_INDEX = 120, H_BLOCKERR = 128, H_MASKOFF = 136, H_CRSOFF = 144, H_DATAOFF = 152, H_DATASIZE = 160,
 	H_FILESIZE = 168, H_CRSSIZE = 176, H_INDEXCRC = 180, H_BLOCKCRC = 184, H_MASKCRC = 188, H_CRSCRC = 192,
-	H_FLAGS = 196, H_DELTA = 200, H_RESERVED = 328, H_CRC = 508,
+	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_RESERVED = 336, H_CRC = 508,
 };
-
-size_t relief_mask_bytes(uint32_t patch_size)
-{
-	return ((size_t)patch_size * patch_size + 7) / 8;
-}
 
 size_t relief_block_errors_per_patch(uint32_t patch_size)
 {
@@ -61,6 +58,7 @@ void relief_header_write(const struct relief_header *h, uint8_t *o)
 	le_put_u64(o + H_INDEX, h->index_offset);
 	le_put_u64(o + H_BLOCKERR, h->block_errors_offset);
 	le_put_u64(o + H_MASKOFF, h->masks_offset);
+	le_put_u64(o + H_MASKSIZE, h->masks_size);
 	le_put_u64(o + H_CRSOFF, h->crs_offset);
 	le_put_u64(o + H_DATAOFF, h->data_offset);
 	le_put_u64(o + H_DATASIZE, h->data_size);
@@ -140,6 +138,7 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	r.index_offset = le_get_u64(b + H_INDEX);
 	r.block_errors_offset = le_get_u64(b + H_BLOCKERR);
 	r.masks_offset = le_get_u64(b + H_MASKOFF);
+	r.masks_size = le_get_u64(b + H_MASKSIZE);
 	r.crs_offset = le_get_u64(b + H_CRSOFF);
 	r.data_offset = le_get_u64(b + H_DATAOFF);
 	r.data_size = le_get_u64(b + H_DATASIZE);
@@ -200,8 +199,11 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "file is %zu bytes but its header says %llu (truncated or extended)", size,
 		           (unsigned long long)r.file_size);
 	uint64_t idx_len = (uint64_t)r.patch_count * RELIEF_INDEX_RECORD_SIZE;
-	uint64_t be_len = (uint64_t)r.patch_count * relief_block_errors_per_patch(r.patch_size) * 4;
-	uint64_t mask_len = (uint64_t)r.mask_count * relief_mask_bytes(r.patch_size);
+	uint64_t be_len = (uint64_t)r.patch_count * relief_block_errors_per_patch(r.patch_size);
+	uint64_t mask_len = r.masks_size;
+	if ((r.mask_count == 0) != (mask_len == 0))
+		return bad(err, err_size, "mask section of %llu bytes for %u masks", (unsigned long long)mask_len,
+		           r.mask_count);
 	if (!section_ok(r.index_offset, idx_len, size))
 		return bad(err, err_size, "index section out of bounds");
 	if (!section_ok(r.block_errors_offset, be_len, size) || r.block_errors_offset < r.index_offset + idx_len)
@@ -227,7 +229,8 @@ void relief_record_write(const struct relief_patch_record *r, uint8_t *o)
 	le_put_f32(o + 20, r->height_max);
 	le_put_f32(o + 24, r->error);
 	le_put_u32(o + 28, r->flags);
-	le_put_u32(o + 32, r->mask_index);
+	le_put_u32(o + 32, r->mask_offset);
+	le_put_u32(o + 36, r->mask_size);
 }
 
 void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
@@ -239,7 +242,8 @@ void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
 	r->height_max = le_get_f32(in + 20);
 	r->error = le_get_f32(in + 24);
 	r->flags = le_get_u32(in + 28);
-	r->mask_index = le_get_u32(in + 32);
+	r->mask_offset = le_get_u32(in + 32);
+	r->mask_size = le_get_u32(in + 36);
 }
 
 static int validate_body(struct relief_file *f, char *err, size_t err_size)
@@ -248,8 +252,8 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	const uint8_t *b = f->base;
 	uint64_t idx_len = (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE;
 	size_t be_per = relief_block_errors_per_patch(h->patch_size);
-	uint64_t be_len = (uint64_t)h->patch_count * be_per * 4;
-	uint64_t mask_len = (uint64_t)h->mask_count * relief_mask_bytes(h->patch_size);
+	uint64_t be_len = (uint64_t)h->patch_count * be_per;
+	uint64_t mask_len = h->masks_size;
 	if (relief_crc32c(0, b + h->index_offset, idx_len) != h->index_crc)
 		return bad(err, err_size, "index checksum mismatch");
 	if (relief_crc32c(0, b + h->block_errors_offset, be_len) != h->block_errors_crc)
@@ -261,9 +265,7 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	if (memchr(b + h->crs_offset, 0, h->crs_size))
 		return bad(err, err_size, "CRS text contains a NUL byte");
 
-	uint8_t *mask_used = calloc(h->mask_count ? h->mask_count : 1, 1);
-	if (!mask_used)
-		return -ENOMEM;
+	uint32_t masks_seen = 0;
 	int ret = 0;
 	for (uint32_t id = 0; id < h->patch_count && ret == 0; id++) {
 		struct relief_patch_record r;
@@ -284,11 +286,12 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 		else if (!isfinite(r.error) || r.error < 0 || r.error > 1e6)
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad error bound %g", id, l, px, py, r.error);
 		else if (r.flags & RELIEF_PATCH_MASKED) {
-			if (r.mask_index >= h->mask_count || mask_used[r.mask_index])
-				ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad mask index %u", id, l, px, py,
-				          r.mask_index);
-			else
-				mask_used[r.mask_index] = 1;
+			if (r.mask_size == 0 || r.mask_offset > h->masks_size || r.mask_size > h->masks_size - r.mask_offset)
+				ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask [%u, +%u) outside the mask section",
+				          id, l, px, py, r.mask_offset, r.mask_size);
+			masks_seen++;
+		} else if (r.mask_offset || r.mask_size) {
+			ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
 		}
 		if (ret == 0 && id > 0 && !(r.flags & RELIEF_PATCH_EMPTY)) {
 			/* A patch with data needs a parent with data: decoding walks down from the root. */
@@ -301,18 +304,9 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 		} else if (ret == 0 && id == 0 && (r.flags & RELIEF_PATCH_EMPTY)) {
 			ret = bad(err, err_size, "the root patch is empty");
 		}
-		if (ret == 0) {
-			const uint8_t *eps = b + h->block_errors_offset + (uint64_t)id * be_per * 4;
-			for (size_t i = 0; i < be_per; i++) {
-				float e = le_get_f32(eps + 4 * i);
-				if (!isfinite(e) || e < 0 || e > 1e6) {
-					ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad block error", id, l, px, py);
-					break;
-				}
-			}
-		}
 	}
-	free(mask_used);
+	if (ret == 0 && masks_seen != h->mask_count)
+		ret = bad(err, err_size, "%u masked patches but the header counts %u", masks_seen, h->mask_count);
 	return ret;
 }
 
@@ -419,25 +413,24 @@ int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t *
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps)
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
-	const uint8_t *p = f->base + f->hdr.block_errors_offset + (uint64_t)id * n * 4;
+	const uint8_t *p = f->base + f->hdr.block_errors_offset + (uint64_t)id * n;
+	const double unit = f->hdr.tolerance / 64.0;
 	for (size_t i = 0; i < n; i++)
-		eps[i] = le_get_f32(p + 4 * i);
+		eps[i] = relief_block_error_decode(p[i], unit);
 }
 
-void relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask)
+int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask)
 {
 	struct relief_patch_record r;
 	relief_file_record(f, id, &r);
 	size_t n = (size_t)f->hdr.patch_size * f->hdr.patch_size;
 	if (r.flags & RELIEF_PATCH_EMPTY) {
 		memset(mask, 0, n);
-		return;
+		return 0;
 	}
 	if (!(r.flags & RELIEF_PATCH_MASKED)) {
 		memset(mask, 1, n);
-		return;
+		return 0;
 	}
-	const uint8_t *bits = f->base + f->hdr.masks_offset + (uint64_t)r.mask_index * relief_mask_bytes(f->hdr.patch_size);
-	for (size_t i = 0; i < n; i++)
-		mask[i] = (bits[i / 8] >> (i % 8)) & 1;
+	return relief_mask_decode(f->hdr.patch_size, f->base + f->hdr.masks_offset + r.mask_offset, r.mask_size, mask);
 }

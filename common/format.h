@@ -44,7 +44,8 @@ struct relief_header {
 	double spacing_x, spacing_y; /* metres; world y = origin_y - row * spacing_y */
 	double height_min, height_max; /* over valid original samples, metres */
 	uint64_t valid_samples;
-	uint64_t index_offset, block_errors_offset, masks_offset, crs_offset, data_offset, data_size, file_size;
+	uint64_t index_offset, block_errors_offset, masks_offset, masks_size, crs_offset, data_offset, data_size,
+		file_size;
 	uint32_t crs_size;
 	uint32_t index_crc, block_errors_crc, masks_crc, crs_crc;
 	double delta[RELIEF_MAX_LEVELS];
@@ -57,12 +58,11 @@ struct relief_patch_record {
 	float height_min, height_max; /* reconstructed interior samples, metres */
 	float error;                  /* Err(P), metres */
 	uint32_t flags;
-	uint32_t mask_index;
+	uint32_t mask_offset, mask_size; /* coded mask in the mask section (MASKED only) */
 };
 
-/* Byte sizes derived from the header. */
-size_t relief_mask_bytes(uint32_t patch_size);
-size_t relief_block_errors_per_patch(uint32_t patch_size); /* floats */
+/* Block errors per patch (one byte each on disk, see relief_block_error_encode()). */
+size_t relief_block_errors_per_patch(uint32_t patch_size);
 
 /* Serialises / parses the 512-byte header (parse checks magic, version, sizes, ranges and
  * the header CRC, and fills `lay`). */
@@ -90,6 +90,7 @@ void relief_file_close(struct relief_file *f);
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r);
 /* The patch's stream after its CRC check: -EBADMSG on mismatch, -ENOENT for an empty patch. */
 int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t **data, size_t *size);
+/* Decoded block errors (upper bounds, metres; +infinity means "never simplify"). */
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps);
-/* 1 byte per interior sample (P x P), 1 = valid. */
-void relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask);
+/* 1 byte per interior sample (P x P), 1 = valid. -EBADMSG for a corrupt mask. */
+int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask);

@@ -49,8 +49,9 @@ struct packer {
 	/* per patch results */
 	struct relief_patch_record *rec;
 	uint8_t **stream;
-	float *eps;
-	uint8_t *mask_bits; /* patch_count * mask_bytes; only MASKED ones are kept */
+	double *eps; /* measured block errors, encoded when the file is assembled */
+	uint8_t **mask; /* coded masks of MASKED patches */
+	size_t *mask_size;
 
 	pthread_mutex_t lock;
 	uint32_t done;
@@ -89,9 +90,16 @@ static int quantise_refined(void *ctx, size_t row2)
 	const uint32_t S = g->size;
 	const double inv = 1.0 / (2.0 * p->lay.delta[l]);
 	if (l == 0) {
-		int y = (int)row2 - 1; /* pass 1 does every row of the root level */
-		for (int x = -1; x <= (int)S; x++)
-			g->q[(size_t)(y + 1) * (S + 2) + x + 1] = (int32_t)llround(level_height(p, 0, x, y) * inv);
+		/* The root level is the root patch (ring included): valid samples are quantised,
+		 * no-data samples take the root coder's MED prediction, so their residual is 0.
+		 * Raster order matters here, so the root is done by one call. */
+		const size_t E = S + 2;
+		for (size_t i = 0; i < E * E; i++) {
+			int x = (int)(i % E) - 1, y = (int)(i / E) - 1;
+			g->q[i] = level_valid(p, 0, x, y) ? (int32_t)llround(level_height(p, 0, x, y) * inv)
+			                                  : relief_root_predict(g->q, (uint32_t)E, (uint32_t)(x + 1),
+			                                                        (uint32_t)(y + 1));
+		}
 		return 0;
 	}
 	const int32_t k = (int32_t)p->lay.ratio;
@@ -203,20 +211,24 @@ static int encode_patch(void *ctx, size_t id)
 	relief_block_errors(&p->lay, heights, p->eps + id * relief_block_errors_per_patch(P));
 
 	/* Validity mask at this level's samples. */
-	const uint32_t step = 1u << (p->lay.levels - 1 - l);
-	uint8_t *bits = p->mask_bits + id * relief_mask_bytes(P);
+	uint8_t *mask = malloc((size_t)P * P);
+	if (!mask) {
+		ret = -ENOMEM;
+		goto out;
+	}
 	bool partial = false;
 	for (uint32_t y = 0; y < P; y++)
 		for (uint32_t x = 0; x < P; x++) {
-			uint64_t X = ((uint64_t)px * (P - 1) + x) * step, Y = ((uint64_t)py * (P - 1) + y) * step;
-			bool v = X < p->dem->width && Y < p->dem->height && p->dem->valid[Y * p->dem->width + X];
-			if (v)
-				bits[(y * P + x) / 8] |= (uint8_t)(1u << ((y * P + x) % 8));
-			else
-				partial = true;
+			mask[y * P + x] = level_valid(p, l, (int)(px * (P - 1) + x), (int)(py * (P - 1) + y));
+			partial |= !mask[y * P + x];
 		}
-	if (partial)
+	if (partial) {
 		r->flags |= RELIEF_PATCH_MASKED;
+		ret = relief_mask_encode(P, mask, &p->mask[id], &p->mask_size[id]);
+	}
+	free(mask);
+	if (ret < 0)
+		goto out;
 
 	if (l == 0) {
 		relief_root_analyse(geom, block, residuals);
@@ -258,7 +270,7 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 {
 	const struct relief_dem *dem = p->dem;
 	const uint32_t n = p->lay.patch_count, P = p->lay.geom.P;
-	const size_t be_per = relief_block_errors_per_patch(P), mb = relief_mask_bytes(P);
+	const size_t be_per = relief_block_errors_per_patch(P);
 	struct relief_header h = {
 		.version = RELIEF_FORMAT_VERSION, .patch_size = P, .levels = p->lay.levels, .ratio = p->lay.ratio,
 		.block_cells = RELIEF_BLOCK_CELLS, .width = dem->width, .height = dem->height, .size = p->lay.size,
@@ -278,8 +290,14 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	h.height_max = hmax;
 	uint64_t data_size = 0;
 	for (uint32_t id = 0; id < n; id++) {
-		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
-			p->rec[id].mask_index = h.mask_count++;
+		if (p->rec[id].flags & RELIEF_PATCH_MASKED) {
+			if (h.masks_size + p->mask_size[id] > UINT32_MAX)
+				return -EOVERFLOW;
+			p->rec[id].mask_offset = (uint32_t)h.masks_size;
+			p->rec[id].mask_size = (uint32_t)p->mask_size[id];
+			h.masks_size += p->mask_size[id];
+			h.mask_count++;
+		}
 		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY)) {
 			p->rec[id].offset = data_size;
 			data_size += p->rec[id].size;
@@ -291,8 +309,8 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	size_t crs_len = dem->crs_wkt ? strlen(dem->crs_wkt) : 0;
 	h.index_offset = RELIEF_HEADER_SIZE;
 	h.block_errors_offset = align8(h.index_offset + (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
-	h.masks_offset = align8(h.block_errors_offset + (uint64_t)n * be_per * 4);
-	h.crs_offset = align8(h.masks_offset + (uint64_t)h.mask_count * mb);
+	h.masks_offset = align8(h.block_errors_offset + (uint64_t)n * be_per);
+	h.crs_offset = align8(h.masks_offset + h.masks_size);
 	h.crs_size = (uint32_t)crs_len;
 	h.data_offset = align8(h.crs_offset + crs_len);
 	h.data_size = data_size;
@@ -303,19 +321,19 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		return -ENOMEM;
 	for (uint32_t id = 0; id < n; id++) {
 		relief_record_write(&p->rec[id], img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE);
-		uint8_t *be = img + h.block_errors_offset + (uint64_t)id * be_per * 4;
+		uint8_t *be = img + h.block_errors_offset + (uint64_t)id * be_per;
 		for (size_t i = 0; i < be_per; i++)
-			le_put_f32(be + 4 * i, p->eps[id * be_per + i]);
+			be[i] = relief_block_error_encode(p->eps[id * be_per + i], p->lay.tolerance / 64.0);
 		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
-			memcpy(img + h.masks_offset + (uint64_t)p->rec[id].mask_index * mb, p->mask_bits + id * mb, mb);
+			memcpy(img + h.masks_offset + p->rec[id].mask_offset, p->mask[id], p->mask_size[id]);
 		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY))
 			memcpy(img + h.data_offset + p->rec[id].offset, p->stream[id], p->rec[id].size);
 	}
 	if (crs_len)
 		memcpy(img + h.crs_offset, dem->crs_wkt, crs_len);
 	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
-	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)n * be_per * 4);
-	h.masks_crc = relief_crc32c(0, img + h.masks_offset, (uint64_t)h.mask_count * mb);
+	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)n * be_per);
+	h.masks_crc = relief_crc32c(0, img + h.masks_offset, h.masks_size);
 	h.crs_crc = relief_crc32c(0, img + h.crs_offset, crs_len);
 	relief_header_write(&h, img);
 	*out = img;
@@ -377,9 +395,10 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 	p->filled = malloc(sizeof(float) * S * S);
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
-	p->eps = calloc((size_t)n * relief_block_errors_per_patch(P), sizeof(float));
-	p->mask_bits = calloc((size_t)n, relief_mask_bytes(P));
-	if (!p->filled || !p->rec || !p->stream || !p->eps || !p->mask_bits) {
+	p->eps = calloc((size_t)n * relief_block_errors_per_patch(P), sizeof(double));
+	p->mask = calloc(n, sizeof(*p->mask));
+	p->mask_size = calloc(n, sizeof(*p->mask_size));
+	if (!p->filled || !p->rec || !p->stream || !p->eps || !p->mask || !p->mask_size) {
 		ret = -ENOMEM;
 		goto out;
 	}
@@ -390,7 +409,7 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 			goto out;
 		p->level = l;
 		if (l == 0) {
-			relief_parallel_for(p->q[0].size + 2, opts->threads, quantise_refined, p);
+			quantise_refined(p, 0);
 		} else {
 			relief_parallel_for((p->q[l].size + 1) / 2, opts->threads, quantise_refined, p);
 			relief_parallel_for(p->q[l].size + 2, opts->threads, quantise_row, p);
@@ -409,14 +428,18 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 out:
 	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
 		relief_qgrid_finish(&p->q[l]);
-	if (p->stream)
-		for (uint32_t id = 0; id < p->lay.patch_count; id++)
+	for (uint32_t id = 0; id < p->lay.patch_count; id++) {
+		if (p->stream)
 			free(p->stream[id]);
+		if (p->mask)
+			free(p->mask[id]);
+	}
+	free(p->mask);
+	free(p->mask_size);
 	free(p->stream);
 	free(p->filled);
 	free(p->rec);
 	free(p->eps);
-	free(p->mask_bits);
 	pthread_mutex_destroy(&p->lock);
 	free(p);
 	return ret;

@@ -54,7 +54,7 @@ static double coarse_value(const double *b, uint32_t P, uint32_t s, uint32_t i, 
 	return relief_cell_value(c[0], c[s], c[(size_t)s * P], c[(size_t)s * P + s], u, v, diag);
 }
 
-void relief_block_errors(const struct relief_layout *lay, const double *ph, float *eps)
+void relief_block_errors(const struct relief_layout *lay, const double *ph, double *eps)
 {
 	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS;
 	for (uint32_t by = 0; by < lay->blocks; by++)
@@ -79,7 +79,31 @@ void relief_block_errors(const struct relief_layout *lay, const double *ph, floa
 							worst = fmax(worst, fmax(fabs(f0 - cv), fabs(f1 - cv)));
 						}
 					}
-				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] = relief_float_up(worst);
+				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] = worst;
 			}
 		}
+}
+
+float relief_block_error_decode(uint8_t code, double unit)
+{
+	if (code == 0)
+		return 0.0f;
+	if (code == RELIEF_BLOCK_CODE_INF)
+		return INFINITY;
+	return relief_float_up(unit * exp2((code - 1) / 16.0));
+}
+
+uint8_t relief_block_error_encode(double e, double unit)
+{
+	if (!(e > 0))
+		return 0;
+	double c = 1.0 + ceil(16.0 * log2(e / unit));
+	if (c < 1)
+		c = 1;
+	if (!(c < RELIEF_BLOCK_CODE_INF)) /* also NaN */
+		return RELIEF_BLOCK_CODE_INF;
+	uint8_t code = (uint8_t)c;
+	while (code < RELIEF_BLOCK_CODE_INF && relief_block_error_decode(code, unit) < e)
+		code++; /* guard against log2/exp2 rounding */
+	return code;
 }

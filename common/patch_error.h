@@ -48,8 +48,16 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
                           const double *patch_heights, const struct relief_original *orig,
                           uint64_t *valid_count);
 
+/* Stored block errors are one byte each, a logarithmic code that rounds up, so a stored
+ * bound is never below the measured one (and at most 2^(1/16) - 1 = 4.4% above it):
+ *   0: 0;  c in 1..254: unit * 2^((c - 1) / 16);  255: +infinity (never simplify).
+ * unit = tolerance / 64, so the codes span about 1/64 to 60,000 times the tolerance. */
+#define RELIEF_BLOCK_CODE_INF 255
+uint8_t relief_block_error_encode(double e, double unit);
+float relief_block_error_decode(uint8_t code, double unit);
+
 /* eps[(by * blocks + bx) * 4 + (d - 1)] for every block of the patch. */
-void relief_block_errors(const struct relief_layout *lay, const double *patch_heights, float *eps);
+void relief_block_errors(const struct relief_layout *lay, const double *patch_heights, double *eps);
 
 /* Value of the triangulated cell with corners h00 (u=v=0), h10, h01, h11 at (u, v) in
  * [0,1]^2, under the diagonal 00-11 (diag = 0) or 10-01 (diag = 1). */

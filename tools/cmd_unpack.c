@@ -8,6 +8,7 @@
 
 #include <cpl_conv.h>
 #include <gdal.h>
+#include <ogr_srs_api.h>
 
 #include "cli.h"
 #include "decode.h"
@@ -40,8 +41,12 @@ static int write_geotiff(const char *path, const struct relief_file *f, uint32_t
 	double sx = f->hdr.spacing_x * step, sy = f->hdr.spacing_y * step;
 	double gt[6] = { f->hdr.origin_x - 0.5 * sx, sx, 0, f->hdr.origin_y + 0.5 * sy, 0, -sy };
 	GDALSetGeoTransform(ds, gt);
-	if (f->crs[0])
-		GDALSetProjection(ds, f->crs);
+	if (f->crs[0]) {
+		OGRSpatialReferenceH srs = OSRNewSpatialReference(NULL);
+		if (OSRSetFromUserInput(srs, f->crs) == OGRERR_NONE)
+			GDALSetSpatialRef(ds, srs);
+		OSRDestroySpatialReference(srs);
+	}
 	GDALRasterBandH band = GDALGetRasterBand(ds, 1);
 	GDALSetRasterNoDataValue(band, NAN);
 	CPLErr e = GDALRasterIO(band, GF_Write, 0, 0, (int)w, (int)hgt, (void *)h, (int)w, (int)hgt, GDT_Float32, 0, 0);

@@ -117,15 +117,13 @@ static int georef_geographic(const double gt[6], uint32_t w, uint32_t h, struct 
 	char proj[256];
 	snprintf(proj, sizeof(proj), "+proj=eqc +lat_ts=%.10f +lat_0=%.10f +lon_0=%.10f +x_0=0 +y_0=0 +R=%.1f "
 	         "+units=m +no_defs", lat0, lat0, lon0, R);
+	/* Stored as the PROJ string: exact for this projection and a fifth of its WKT. */
 	OGRSpatialReferenceH srs = OSRNewSpatialReference(NULL);
-	char *wkt = NULL;
-	if (OSRImportFromProj4(srs, proj) != OGRERR_NONE || OSRExportToWkt(srs, &wkt) != OGRERR_NONE) {
-		OSRDestroySpatialReference(srs);
-		return fail(err, n, "cannot build the local projection %s", proj);
-	}
-	d->crs_wkt = strdup(wkt);
-	CPLFree(wkt);
+	bool ok = OSRImportFromProj4(srs, proj) == OGRERR_NONE;
 	OSRDestroySpatialReference(srs);
+	if (!ok)
+		return fail(err, n, "cannot build the local projection %s", proj);
+	d->crs_wkt = strdup(proj);
 	return d->crs_wkt ? 0 : -ENOMEM;
 }
 
