@@ -2,7 +2,9 @@
 # Command-line contract of relief and reliefd: versions agree, usage errors exit 2 with a
 # message naming the problem, --help exits 0.
 set -u
-relief=$1 reliefd=$2
+relief=$1 reliefd=$2 data=$3
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
 fails=0 passes=0
 check() { # name expected_status command...
 	local name=$1 want=$2; shift 2
@@ -43,5 +45,57 @@ check relief-hello-missing-value 2 "$relief" hello --size
 check reliefd-unknown-option 2 "$reliefd" --bogus
 check reliefd-bad-config 1 "$reliefd" --config /nonexistent.conf --check
 expect_text reliefd-bad-config-named "/nonexistent.conf"
+
+# pack / info / unpack on real data
+check pack-lux 0 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/lux.relief" --tolerance 1 --patch 65
+expect_text pack-summary "measured max error"
+check pack-quiet 0 "$relief" pack "$data/ps_height_1k.png" "$tmp/ps.relief" -t 4 -q
+[ -z "$LAST_OUT" ] || { echo "FAIL pack -q printed: $LAST_OUT"; fails=$((fails + 1)); }
+check info 0 "$relief" info "$tmp/lux.relief"
+expect_text info-extent "extent"
+expect_text info-crs "+proj=eqc"
+check info-json 0 "$relief" info "$tmp/ps.relief" --json
+expect_text info-json-levels '"levels":[{"level":0'
+check unpack-raw 0 "$relief" unpack "$tmp/lux.relief" "$tmp/lux.f32" --raw --mask "$tmp/lux.mask"
+[ "$(stat -c %s "$tmp/lux.f32")" -eq $((95 * 90 * 4)) ] || { echo "FAIL raw size"; fails=$((fails + 1)); }
+[ "$(stat -c %s "$tmp/lux.mask")" -eq $((95 * 90)) ] || { echo "FAIL mask size"; fails=$((fails + 1)); }
+check unpack-level 0 "$relief" unpack "$tmp/lux.relief" "$tmp/lux0.f32" --raw --level 0
+[ "$(stat -c %s "$tmp/lux0.f32")" -eq $((48 * 45 * 4)) ] || { echo "FAIL level-0 size"; fails=$((fails + 1)); }
+check unpack-bad-level 2 "$relief" unpack "$tmp/lux.relief" "$tmp/x.f32" --level 9
+expect_text unpack-bad-level-named "levels 0..1"
+# usage errors
+check pack-no-tolerance 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief"
+expect_text pack-no-tolerance-named "--tolerance"
+check pack-bad-patch 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief" -t 1 --patch 100
+check pack-bad-tolerance 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief" -t nan
+check pack-zero-spacing 2 "$relief" pack "$data/alps-montblanc.png" "$tmp/x.relief" -t 1 --spacing 0
+cp "$data/alps-montblanc.png" "$tmp/nosidecar.png"
+check pack-png-needs-spacing 1 "$relief" pack "$tmp/nosidecar.png" "$tmp/x.relief" -t 1
+expect_text pack-png-needs-spacing-named "--spacing"
+printf '[import]\nspacing = ten\n' > "$tmp/nosidecar.png.relief-import"
+check pack-bad-sidecar 2 "$relief" pack "$tmp/nosidecar.png" "$tmp/x.relief" -t 1
+expect_text pack-bad-sidecar-named "spacing"
+check pack-raw-half 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief" -t 1 --raw-size 4x4
+expect_text pack-raw-half-named "--raw-size and --raw-type"
+# bad input keeps what is already stored
+cp "$tmp/lux.relief" "$tmp/keep.relief"
+check pack-missing-input 1 "$relief" pack "$tmp/missing.tif" "$tmp/keep.relief" -t 1
+expect_text pack-missing-input-named "missing.tif"
+cmp -s "$tmp/lux.relief" "$tmp/keep.relief" || { echo "FAIL existing output was damaged"; fails=$((fails + 1)); }
+# corrupt files get a reason, not a crash
+head -c 1000 "$tmp/lux.relief" > "$tmp/short.relief"
+check info-truncated 1 "$relief" info "$tmp/short.relief"
+expect_text info-truncated-named "truncated"
+printf 'hello' > "$tmp/junk.relief"
+check info-junk 1 "$relief" info "$tmp/junk.relief"
+expect_text info-junk-named "too short"
+check info-missing 1 "$relief" info "$tmp/none.relief"
+expect_text info-missing-named "No such file"
+# bench codec prints one JSON record per (file, method, tolerance)
+check bench-codec 0 "$relief" bench codec "$data/luxembourg_elev.tif" --runs 1 --tolerances 1 --json
+n=$(grep -c '"method":' <<<"$LAST_OUT")
+[ "$n" -eq 3 ] || { echo "FAIL bench codec records: $n"; fails=$((fails + 1)); }
+expect_text bench-codec-fields '"file":"luxembourg_elev.tif","method":"relief","tolerance_m":1,"bytes":'
+check bench-unknown-mode 2 "$relief" bench frobnicate
 echo "cli: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -1,0 +1,265 @@
+/* The container under attack: truncation, bit flips, hostile but checksum-valid headers
+ * and records. Every case must end in a clear error (never a crash, never an
+ * out-of-bounds read: this test also runs under ASan), and a damaged patch stream must not
+ * make the rest of the file unreadable. */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdbool.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "../data_load.h"
+#include "crc32c.h"
+#include "decode.h"
+#include "format.h"
+#include "le.h"
+#include "pack.h"
+
+static uint8_t *img;
+static size_t img_size;
+
+static int setup(void **state)
+{
+	struct relief_dem dem;
+	test_dem_load(DEM_LUX, &dem);
+	struct relief_pack_options o = { .patch = 65, .ratio = 2, .tolerance = 1.0 };
+	assert_int_equal(relief_pack_memory(&dem, &o, &img, &img_size, NULL), 0);
+	relief_dem_finish(&dem);
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	free(img);
+	return 0;
+}
+
+static int open_copy(const uint8_t *buf, size_t size, char *err, size_t n)
+{
+	uint8_t *copy = malloc(size ? size : 1); /* exact-size heap copy: ASan sees any overread */
+	memcpy(copy, buf, size);
+	struct relief_file *f = NULL;
+	int ret = relief_file_open_memory(copy, size, &f, err, n);
+	if (ret == 0) {
+		/* Whatever opened must decode or fail cleanly. */
+		uint32_t w, h;
+		relief_level_extent(&f->hdr, f->hdr.levels - 1, &w, &h);
+		float *hh = malloc(sizeof(float) * w * h);
+		int r = relief_decode_level(f, f->hdr.levels - 1, 1, hh, NULL);
+		assert_true(r == 0 || r == -EBADMSG);
+		free(hh);
+		relief_file_close(f);
+	}
+	free(copy);
+	return ret;
+}
+
+static void test_valid_file_opens(void **state)
+{
+	char err[256] = "";
+	assert_int_equal(open_copy(img, img_size, err, sizeof(err)), 0);
+}
+
+static void test_truncation(void **state)
+{
+	char err[256];
+	for (size_t n = 0; n < img_size; n += n < 600 ? 1 : 97) {
+		err[0] = '\0';
+		assert_int_equal(open_copy(img, n, err, sizeof(err)), -EBADMSG);
+		assert_true(err[0] != '\0');
+	}
+	assert_int_equal(open_copy(img, img_size - 1, err, sizeof(err)), -EBADMSG);
+	assert_non_null(strstr(err, "truncated"));
+}
+
+/* Any single flipped bit outside the patch streams is caught at open by a checksum;
+ * inside a stream, open succeeds and that patch's CRC check refuses it. */
+static void test_bit_flips(void **state)
+{
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open_memory(img, img_size, &f, err, sizeof(err)), 0);
+	uint64_t data_offset = f->hdr.data_offset;
+	uint32_t patches = f->hdr.patch_count;
+	/* Covered bytes: the header and every section; the rest is alignment padding. */
+	const struct relief_header *h = &f->hdr;
+	uint64_t sections[5][2] = {
+		{ 0, RELIEF_HEADER_SIZE },
+		{ h->index_offset, h->index_offset + (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE },
+		{ h->block_errors_offset, h->block_errors_offset + h->patch_count * relief_block_errors_per_patch(h->patch_size) },
+		{ h->masks_offset, h->masks_offset + h->masks_size },
+		{ h->crs_offset, h->crs_offset + h->crs_size },
+	};
+	relief_file_close(f);
+	size_t padding = 0;
+	uint8_t *copy = malloc(img_size);
+	for (size_t i = 0; i < img_size; i += i < data_offset ? 1 : 13) {
+		memcpy(copy, img, img_size);
+		copy[i] ^= (uint8_t)(1u << (i % 8));
+		int ret = relief_file_open_memory(copy, img_size, &f, err, sizeof(err));
+		if (i < data_offset) {
+			bool covered = false;
+			for (int k = 0; k < 5; k++)
+				covered |= i >= sections[k][0] && i < sections[k][1];
+			if (covered) {
+				assert_int_equal(ret, -EBADMSG);
+			} else {
+				padding++;
+				if (ret == 0)
+					relief_file_close(f);
+			}
+			continue;
+		}
+		assert_int_equal(ret, 0);
+		int bad = 0;
+		for (uint32_t id = 0; id < patches; id++) {
+			const uint8_t *d;
+			size_t n;
+			int r = relief_file_stream(f, id, &d, &n);
+			bad += r == -EBADMSG;
+		}
+		assert_int_equal(bad, 1);
+		relief_file_close(f);
+	}
+	assert_true(padding < 40); /* at most 7 bytes after each of the 5 sections */
+	free(copy);
+}
+
+/* Rewrites a header field and fixes the header CRC, so that field validation is what
+ * must catch it. */
+static int open_with_u32(size_t off, uint32_t v, char *err, size_t n)
+{
+	uint8_t *copy = malloc(img_size);
+	memcpy(copy, img, img_size);
+	le_put_u32(copy + off, v);
+	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
+	int ret = open_copy(copy, img_size, err, n);
+	free(copy);
+	return ret;
+}
+
+static int open_with_f64(size_t off, double v, char *err, size_t n)
+{
+	uint8_t *copy = malloc(img_size);
+	memcpy(copy, img, img_size);
+	le_put_f64(copy + off, v);
+	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
+	int ret = open_copy(copy, img_size, err, n);
+	free(copy);
+	return ret;
+}
+
+static void expect(int ret, const char *err, const char *needle)
+{
+	assert_int_equal(ret, -EBADMSG);
+	if (!strstr(err, needle))
+		fail_msg("error '%s' does not mention '%s'", err, needle);
+}
+
+static void test_hostile_header_fields(void **state)
+{
+	char err[256];
+	expect(open_with_u32(8, 2, err, sizeof(err)), err, "version");
+	expect(open_with_u32(16, 100, err, sizeof(err)), err, "patch size");
+	expect(open_with_u32(20, 17, err, sizeof(err)), err, "level count");
+	expect(open_with_u32(20, 0, err, sizeof(err)), err, "level count");
+	expect(open_with_u32(24, 5, err, sizeof(err)), err, "ratio");
+	expect(open_with_u32(32, 0, err, sizeof(err)), err, "extent");
+	expect(open_with_u32(32, 1u << 30, err, sizeof(err)), err, "extent");
+	expect(open_with_u32(40, 1025, err, sizeof(err)), err, "grid size");
+	expect(open_with_u32(48, 4, err, sizeof(err)), err, "patch count");
+	expect(open_with_u32(48, 0xffffffffu, err, sizeof(err)), err, "patch count");
+	expect(open_with_u32(44, 9, err, sizeof(err)), err, "units");
+	expect(open_with_u32(196, 1, err, sizeof(err)), err, "flags");
+	expect(open_with_f64(56, 0.0, err, sizeof(err)), err, "tolerance");
+	expect(open_with_f64(56, NAN, err, sizeof(err)), err, "tolerance");
+	expect(open_with_f64(64, INFINITY, err, sizeof(err)), err, "origin");
+	expect(open_with_f64(80, -1.0, err, sizeof(err)), err, "spacing");
+	expect(open_with_f64(96, 1e300, err, sizeof(err)), err, "height range");
+	expect(open_with_f64(200 + 8, 3.0, err, sizeof(err)), err, "level 1 tolerance");
+	/* Sections out of bounds or overlapping. */
+	expect(open_with_u32(120, 7, err, sizeof(err)), err, "index");
+	expect(open_with_u32(120, 0xfffffff8u, err, sizeof(err)), err, "index");
+	expect(open_with_u32(128, 512, err, sizeof(err)), err, "block error");
+	expect(open_with_u32(160, 0xfffffff0u, err, sizeof(err)), err, "data section");
+	expect(open_with_u32(176, 1u << 31, err, sizeof(err)), err, "CRS");
+	/* A reserved byte set. */
+	expect(open_with_u32(400, 1, err, sizeof(err)), err, "reserved");
+}
+
+/* Rewrites index record `id` (fixing the index CRC). */
+static int open_with_record(uint32_t id, void (*edit)(struct relief_patch_record *), char *err, size_t n)
+{
+	uint8_t *copy = malloc(img_size);
+	memcpy(copy, img, img_size);
+	struct relief_file *f;
+	assert_int_equal(relief_file_open_memory(img, img_size, &f, err, n), 0);
+	uint64_t idx = f->hdr.index_offset;
+	uint32_t count = f->hdr.patch_count;
+	relief_file_close(f);
+	struct relief_patch_record r;
+	relief_record_read(copy + idx + id * RELIEF_INDEX_RECORD_SIZE, &r);
+	edit(&r);
+	relief_record_write(&r, copy + idx + id * RELIEF_INDEX_RECORD_SIZE);
+	le_put_u32(copy + 180, relief_crc32c(0, copy + idx, (size_t)count * RELIEF_INDEX_RECORD_SIZE));
+	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
+	int ret = open_copy(copy, img_size, err, n);
+	free(copy);
+	return ret;
+}
+
+static void rec_huge_offset(struct relief_patch_record *r) { r->offset = UINT64_MAX - 3; }
+static void rec_huge_size(struct relief_patch_record *r) { r->size = UINT32_MAX; }
+static void rec_bad_flags(struct relief_patch_record *r) { r->flags |= 1u << 7; }
+static void rec_nan_error(struct relief_patch_record *r) { r->error = NAN; }
+static void rec_inverted_range(struct relief_patch_record *r) { r->height_min = r->height_max + 1; }
+static void rec_empty_root(struct relief_patch_record *r) { r->flags = RELIEF_PATCH_EMPTY; r->size = 0; r->offset = 0; }
+static void rec_bad_mask(struct relief_patch_record *r) { r->flags |= RELIEF_PATCH_MASKED; r->mask_offset = 1u << 30; r->mask_size = 4; }
+
+static void test_hostile_records(void **state)
+{
+	char err[256];
+	expect(open_with_record(1, rec_huge_offset, err, sizeof(err)), err, "outside the data section");
+	expect(open_with_record(2, rec_huge_size, err, sizeof(err)), err, "outside the data section");
+	expect(open_with_record(3, rec_bad_flags, err, sizeof(err)), err, "unknown flags");
+	expect(open_with_record(1, rec_nan_error, err, sizeof(err)), err, "error bound");
+	expect(open_with_record(1, rec_inverted_range, err, sizeof(err)), err, "height range");
+	expect(open_with_record(0, rec_empty_root, err, sizeof(err)), err, "root");
+	expect(open_with_record(1, rec_bad_mask, err, sizeof(err)), err, "mask");
+}
+
+static void test_open_from_disk(void **state)
+{
+	char path[] = "/tmp/relief-test-XXXXXX";
+	int fd = mkstemp(path);
+	assert_true(fd >= 0);
+	assert_int_equal(write(fd, img, img_size), (ssize_t)img_size);
+	close(fd);
+	int fds = test_count_fds();
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open(path, &f, err, sizeof(err)), 0);
+	assert_int_equal(f->hdr.width, 95);
+	relief_file_close(f);
+	assert_int_equal(test_count_fds(), fds);
+	truncate(path, 700);
+	assert_int_equal(relief_file_open(path, &f, err, sizeof(err)), -EBADMSG);
+	unlink(path);
+	assert_int_equal(relief_file_open(path, &f, err, sizeof(err)), -ENOENT);
+	assert_int_equal(relief_file_open("/tmp", &f, err, sizeof(err)), -EINVAL);
+	assert_int_equal(test_count_fds(), fds);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_valid_file_opens),
+		cmocka_unit_test(test_truncation),
+		cmocka_unit_test(test_bit_flips),
+		cmocka_unit_test(test_hostile_header_fields),
+		cmocka_unit_test(test_hostile_records),
+		cmocka_unit_test(test_open_from_disk),
+	};
+	return cmocka_run_group_tests(tests, setup, teardown);
+}
