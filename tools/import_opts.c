@@ -1,4 +1,5 @@
 #include <errno.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -88,9 +89,8 @@ bool import_options_check(const char *cmd, const struct dem_import_options *o)
 }
 
 struct sidecar {
-	const char *cmd, *path;
+	const char *cmd;
 	struct dem_import_options o;
-	char bad_key[64];
 };
 
 static int sidecar_handler(void *user, const char *section, const char *name, const char *value)
@@ -104,7 +104,16 @@ static int sidecar_handler(void *user, const char *section, const char *name, co
 		for (size_t i = 0; i < sizeof(keys) / sizeof(keys[0]); i++)
 			if (strcmp(name, keys[i].key) == 0)
 				return import_option(sc->cmd, keys[i].code, value, &sc->o) ? 1 : 0;
-	snprintf(sc->bad_key, sizeof(sc->bad_key), "[%.20s] %.30s", section, name);
+	return 0;
+}
+
+int import_sidecar_parse(const char *cmd, const char *text, struct dem_import_options *out, int *line)
+{
+	struct sidecar sc = { .cmd = cmd };
+	*line = ini_parse_string(text, sidecar_handler, &sc);
+	if (*line != 0)
+		return -EINVAL;
+	*out = sc.o;
 	return 0;
 }
 
@@ -121,17 +130,25 @@ int import_sidecar_merge(const char *cmd, const char *input, struct dem_import_o
 		free(path);
 		return e == ENOENT ? 0 : -e;
 	}
-	struct sidecar sc = { .cmd = cmd, .path = path };
-	int line = ini_parse_file(f, sidecar_handler, &sc);
+	char text[4096];
+	size_t len = fread(text, 1, sizeof(text) - 1, f);
+	bool too_long = !feof(f);
 	fclose(f);
-	if (line != 0) {
-		fprintf(stderr, "relief %s: %s: line %d: %s\n", cmd, path, line,
-		        sc.bad_key[0] ? "unknown section or key" : "invalid line or value");
+	text[len] = '\0';
+	if (too_long || memchr(text, 0, len)) {
+		fprintf(stderr, "relief %s: %s: not a sidecar (binary or over %zu bytes)\n", cmd, path, sizeof(text) - 1);
+		free(path);
+		return -EINVAL;
+	}
+	struct dem_import_options side = { 0 };
+	int line = 0;
+	if (import_sidecar_parse(cmd, text, &side, &line) < 0) {
+		fprintf(stderr, "relief %s: %s: line %d: unknown section or key, or invalid value\n", cmd, path, line);
 		free(path);
 		return -EINVAL;
 	}
 	free(path);
-	const struct dem_import_options *s = &sc.o;
+	const struct dem_import_options *s = &side;
 	if (!o->has_encoding && s->has_encoding) { o->encoding = s->encoding; o->has_encoding = true; }
 	if (!o->has_units && s->has_units) { o->units = s->units; o->has_units = true; }
 	if (!o->has_scale && s->has_scale) { o->scale = s->scale; o->has_scale = true; }

@@ -40,5 +40,8 @@ bool import_option(const char *cmd, int c, const char *arg, struct dem_import_op
  * command line did not set are taken from it. Returns 0 when there is no sidecar, -EINVAL
  * (after printing the line and key) when it is malformed. */
 int import_sidecar_merge(const char *cmd, const char *input, struct dem_import_options *o);
+/* Parses sidecar text into `out` (only the fields it sets). Returns 0, or -EINVAL with the
+ * line number in *line. Used by import_sidecar_merge() and the fuzz target. */
+int import_sidecar_parse(const char *cmd, const char *text, struct dem_import_options *out, int *line);
 /* Checks option combinations after parsing. */
 bool import_options_check(const char *cmd, const struct dem_import_options *o);

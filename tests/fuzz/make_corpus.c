@@ -1,0 +1,129 @@
+/* Writes the seed corpora of the fuzz targets: make_corpus TESTS_DATA_DIR CORPUS_DIR.
+ * Seeds are valid inputs (small .relief files, patch and mask streams taken from them,
+ * configuration texts) plus truncated and bit-flipped variants. Deterministic, so the
+ * committed corpus can be regenerated after a format change. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dem_import.h"
+#include "format.h"
+#include "pack.h"
+
+static void put(const char *dir, const char *sub, const char *name, const void *data, size_t n)
+{
+	char path[4096];
+	snprintf(path, sizeof(path), "%s/%s/%s", dir, sub, name);
+	FILE *f = fopen(path, "wb");
+	if (!f || fwrite(data, 1, n, f) != n) {
+		fprintf(stderr, "cannot write %s\n", path);
+		exit(1);
+	}
+	fclose(f);
+}
+
+static void variants(const char *dir, const char *sub, const char *base, const uint8_t *data, size_t n)
+{
+	char name[256];
+	snprintf(name, sizeof(name), "%s", base);
+	put(dir, sub, name, data, n);
+	snprintf(name, sizeof(name), "%s-half", base);
+	put(dir, sub, name, data, n / 2);
+	uint8_t *copy = malloc(n);
+	for (int k = 0; k < 3; k++) {
+		memcpy(copy, data, n);
+		size_t at = (n / 3) * (size_t)k + 17 < n ? (n / 3) * (size_t)k + 17 : 0;
+		copy[at] ^= 0x5a;
+		snprintf(name, sizeof(name), "%s-flip%d", base, k);
+		put(dir, sub, name, copy, n);
+	}
+	free(copy);
+}
+
+static void pack_file(const char *dir, const char *name, struct relief_dem *dem, uint32_t patch, double tol)
+{
+	struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = tol, .threads = 1 };
+	uint8_t *img;
+	size_t size;
+	if (relief_pack_memory(dem, &o, &img, &size, NULL) < 0)
+		exit(1);
+	variants(dir, "format", name, img, size);
+	struct relief_file *f;
+	char err[256];
+	if (relief_file_open_memory(img, size, &f, err, sizeof(err)) < 0)
+		exit(1);
+	for (uint32_t id = 0; id < f->hdr.patch_count && id < 3; id++) {
+		const uint8_t *d;
+		size_t n;
+		if (relief_file_stream(f, id, &d, &n) < 0)
+			continue;
+		uint8_t *sel = malloc(n + 1);
+		sel[0] = (uint8_t)(id == 0 ? 1 : (id - 1) << 1); /* root, or child quadrant */
+		memcpy(sel + 1, d, n);
+		char base[128];
+		snprintf(base, sizeof(base), "%s-patch%u", name, id);
+		if (patch == 65)
+			variants(dir, "patch", base, sel, n + 1);
+		struct relief_patch_record r;
+		relief_file_record(f, id, &r);
+		if ((r.flags & RELIEF_PATCH_MASKED) && patch == 65) {
+			uint8_t *m = malloc(r.mask_size + 1);
+			m[0] = 16;
+			memcpy(m + 1, f->base + f->hdr.masks_offset + r.mask_offset, r.mask_size);
+			snprintf(base, sizeof(base), "%s-mask%u", name, id);
+			variants(dir, "patch", base, m, r.mask_size + 1);
+			free(m);
+		}
+		free(sel);
+	}
+	relief_file_close(f);
+	free(img);
+}
+
+int main(int argc, char **argv)
+{
+	if (argc != 3) {
+		fprintf(stderr, "usage: make_corpus TESTS_DATA_DIR CORPUS_DIR\n");
+		return 2;
+	}
+	const char *out = argv[2];
+	char path[4096], err[512];
+	struct relief_dem dem;
+	struct dem_import_options o = { 0 };
+	snprintf(path, sizeof(path), "%s/luxembourg_elev.tif", argv[1]);
+	if (dem_import(path, &o, &dem, err, sizeof(err)) < 0) {
+		fprintf(stderr, "%s\n", err);
+		return 1;
+	}
+	pack_file(out, "lux65", &dem, 65, 1.0);
+	pack_file(out, "lux129", &dem, 129, 4.0);
+	relief_dem_finish(&dem);
+	/* A tiny flat sea with one no-data corner. */
+	float h[9] = { 0 };
+	uint8_t v[9] = { 0, 1, 1, 1, 1, 1, 1, 1, 1 };
+	struct relief_dem sea = { .width = 3, .height = 3, .heights = h, .valid = v, .spacing_x = 10, .spacing_y = 10 };
+	pack_file(out, "sea", &sea, 65, 0.5);
+
+	const char *configs[] = {
+		"[gpu]\ndevice = llvmpipe\nvalidation = true\nbudget_mib = 64\n",
+		"[gpu]\nbudget_mib = 99999999999\n",
+		"[gpu\ndevice\n",
+		"; comment\n[gpu]\ndevice = 0123456789abcdef0123456789abcdef\n[other]\nx = 1\n",
+	};
+	for (size_t i = 0; i < sizeof(configs) / sizeof(configs[0]); i++) {
+		snprintf(path, sizeof(path), "config%zu.ini", i);
+		put(out, "config", path, configs[i], strlen(configs[i]));
+	}
+	const char *sidecars[] = {
+		"[import]\nscale = 0.1\nspacing = 160\n",
+		"[import]\nscale = 0.06646829938201\noffset = 454\nspacing = 92.7\nunits = ft\n",
+		"[import]\nencoding = terrain-rgb\nnodata = -32768\n",
+		"[import]\nspacing = -3\nunits = yards\n",
+		"[other]\nscale = 1\n",
+	};
+	for (size_t i = 0; i < sizeof(sidecars) / sizeof(sidecars[0]); i++) {
+		snprintf(path, sizeof(path), "sidecar%zu.ini", i);
+		put(out, "sidecar", path, sidecars[i], strlen(sidecars[i]));
+	}
+	return 0;
+}
