@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "codec.h"
+#include "rans.h"
 
 /* The predictors shift negative sums: C leaves >> of negative values implementation-
  * defined, GLSL defines it as arithmetic. Refuse to build where C's is not. */
@@ -198,44 +199,45 @@ int relief_root_reconstruct(const struct relief_patch_geom *g, const int32_t *re
 	return 0;
 }
 
-/* ---- entropy models ----
+/* ---- entropy coding ----
  *
  * A residual d is one symbol of an adaptive 16-symbol model chosen by local activity,
  * plus raw bits:
  *   symbol 0: d = 0; symbols 2k+1 / 2k+2 (k = 0..6): d > 0 / d < 0 with |d| - 1 in
  *   [2^(k-1), 2^k) (k = 0: |d| = 1), followed by k - 1 raw bits of |d| - 1 below its top
- *   bit; symbol 15: escape for |d| > 64: a raw sign bit, then |d| - 65 as an adaptive
- *   Elias-gamma code (exponent in unary with adaptive bits, mantissa raw).
- * Labels are two adaptive binary decisions (zero?, sign) with the count of non-zero left
- * and upper labels as context. */
+ *   bit; symbol 15: escape for |d| > 64: raw sign bit, the exponent k <= 28 of |d| - 64 as
+ *   a symbol of the plane's escape model (15: k >= 15, then 5 raw bits of k), then the k
+ *   low bits of |d| - 64 (whose top bit is implied).
+ * Labels r = 0, +1, -1 are symbols 0, 1, 2 of such a model (the other symbols keep the
+ * minimum frequency); context = number of non-zero left and upper labels.
+ * Symbols go through rANS (rans.h) in two streams: row r of every plane and of the labels
+ * goes to stream r & 1, each stream with its own models, and the decoder runs both in
+ * lockstep (row 2j at column u, then row 2j+1 at column u), so that two serial chains
+ * overlap on the CPU. Every context is available in that order: (r, u-1) is in the same
+ * stream, (r-1, u) was decoded one step earlier. Raw bits share one bit stream in the same
+ * order. Patch stream layout: u32 LE byte sizes of rANS stream 0, rANS stream 1 and the
+ * raw bits, then the three. */
 
 #define ACTIVITY_CONTEXTS 7
-#define MAX_EXP 28 /* escaped magnitudes below 65 + 2^29 */
+#define MAX_EXP 28
 #define ESCAPE_SYMBOL 15
 #define ESCAPE_BASE 65
 
-struct residual_models {
-	struct rc_cdf16 sym[ACTIVITY_CONTEXTS];
-	rc_prob esc_exp[MAX_EXP + 1];
+struct stream_models {
+	struct rc_cdf16 labels[3];
+	struct rc_cdf16 res[3][ACTIVITY_CONTEXTS]; /* per plane, per activity */
+	struct rc_cdf16 esc[3];                    /* escape exponents, per plane */
 };
 
-/* Labels: symbols 0, 1, 2 of a 16-symbol model for r = 0, +1, -1 (the unused symbols
- * keep the minimum frequency, 13 / 2^14 of the range in all). */
-struct label_models {
-	struct rc_cdf16 sym[3];
-};
-
-static void models_init(rc_prob *p, size_t n)
+static void stream_models_init(struct stream_models *m)
 {
-	for (size_t i = 0; i < n; i++)
-		p[i] = RC_PROB_INIT;
-}
-
-static void residual_models_init(struct residual_models *m)
-{
-	for (int c = 0; c < ACTIVITY_CONTEXTS; c++)
-		rc_cdf16_init(&m->sym[c]);
-	models_init(m->esc_exp, MAX_EXP + 1);
+	for (int c = 0; c < 3; c++)
+		rc_cdf16_init(&m->labels[c]);
+	for (int p = 0; p < 3; p++) {
+		for (int c = 0; c < ACTIVITY_CONTEXTS; c++)
+			rc_cdf16_init(&m->res[p][c]);
+		rc_cdf16_init(&m->esc[p]);
+	}
 }
 
 static inline uint32_t mag(int32_t v)
@@ -269,199 +271,239 @@ static inline unsigned plane_context(const int32_t *v, uint32_t w, uint32_t u, u
 	return activity_of[s];
 }
 
-static void encode_residual(struct rc_encoder *e, struct residual_models *m, unsigned c, int32_t d)
-{
-	uint32_t v = mag(d);
-	if (v == 0) {
-		rc_encode_sym16(e, &m->sym[c], 0);
-		return;
-	}
-	if (v < ESCAPE_BASE) {
-		uint32_t a = v - 1;
-		unsigned k = a ? 32 - (unsigned)__builtin_clz(a) : 0; /* a in [2^(k-1), 2^k) */
-		rc_encode_sym16(e, &m->sym[c], 2 * k + 1 + (d < 0));
-		if (k >= 2)
-			rc_encode_direct(e, a & ((1u << (k - 1)) - 1), k - 1);
-		return;
-	}
-	rc_encode_sym16(e, &m->sym[c], ESCAPE_SYMBOL);
-	rc_encode_direct(e, d < 0, 1);
-	uint32_t x = v - ESCAPE_BASE + 1; /* >= 1 */
-	unsigned k = 31 - (unsigned)__builtin_clz(x);
-	for (unsigned i = 0; i < k; i++)
-		rc_encode_bit(e, &m->esc_exp[i], 1);
-	if (k < MAX_EXP)
-		rc_encode_bit(e, &m->esc_exp[k], 0);
-	if (k)
-		rc_encode_direct(e, x & ((1u << k) - 1), k);
-}
-
-/* Symbol -> magnitude base and raw bit count (see the table at the top of this section). */
-static const uint8_t sym_bits[16] = { 0, 0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 0 };
-static const uint8_t sym_base[16] = { 0, 1, 1, 2, 2, 3, 3, 5, 5, 9, 9, 17, 17, 33, 33, 0 };
-
-static inline int32_t decode_residual(struct rc_decoder *d, struct residual_models *m, unsigned c)
-{
-	unsigned s = rc_decode_sym16(d, &m->sym[c]);
-	if (__builtin_expect(s != ESCAPE_SYMBOL, 1)) {
-		int32_t v = (int32_t)(sym_base[s] + rc_decode_bits16(d, sym_bits[s]));
-		return (s & 1) || s == 0 ? v : -v;
-	}
-	unsigned neg = rc_decode_direct(d, 1);
-	unsigned k = 0;
-	while (k < MAX_EXP && rc_decode_bit(d, &m->esc_exp[k]))
-		k++;
-	uint32_t x = (1u << k) | (k ? rc_decode_direct(d, k) : 0);
-	int32_t v = (int32_t)(x - 1 + ESCAPE_BASE);
-	return neg ? -v : v;
-}
-
-/* Two streams: row r of every plane (and of the labels) goes to stream r & 1, each stream
- * with its own models. The decoder runs both in lockstep (row 2j at column u, then row
- * 2j+1 at column u), so the two serial chains of range decoding overlap on the CPU. Every
- * context is still available in that order: (r, u-1) is in the same stream, (r-1, u) was
- * decoded one step earlier. Stream layout: u32 LE size of stream 0, stream 0, stream 1. */
-
-struct stream_models {
-	struct label_models labels;
-	struct residual_models res[3];
-};
-
-static void stream_models_init(struct stream_models *m)
-{
-	for (int c = 0; c < 3; c++)
-		rc_cdf16_init(&m->labels.sym[c]);
-	for (int i = 0; i < 3; i++)
-		residual_models_init(&m->res[i]);
-}
-
-static void encode_plane(struct rc_encoder e[2], struct stream_models m[2], int p, const int32_t *v, uint32_t w,
-                         uint32_t h)
-{
-	for (uint32_t row = 0; row < h; row++)
-		for (uint32_t u = 0; u < w; u++)
-			encode_residual(&e[row & 1], &m[row & 1].res[p], plane_context(v, w, u, row), v[row * w + u]);
-}
-
-static void decode_plane(struct rc_decoder d[2], struct stream_models m[2], int p, int32_t *v, uint32_t w,
-                         uint32_t h)
-{
-	uint32_t row = 0;
-	for (; row + 1 < h; row += 2) {
-		int32_t *a = v + row * w, *b = a + w;
-		for (uint32_t u = 0; u < w; u++) {
-			a[u] = decode_residual(&d[0], &m[0].res[p], plane_context(v, w, u, row));
-			b[u] = decode_residual(&d[1], &m[1].res[p], plane_context(v, w, u, row + 1));
-		}
-	}
-	if (row < h)
-		for (uint32_t u = 0; u < w; u++)
-			v[row * w + u] = decode_residual(&d[0], &m[0].res[p], plane_context(v, w, u, row));
-}
-
 static inline unsigned label_context(const int8_t *l, uint32_t L, uint32_t i, uint32_t j)
 {
 	return (i && l[j * L + i - 1] != 0) + (j && l[(j - 1) * L + i] != 0);
 }
 
-static inline int8_t decode_label(struct rc_decoder *d, struct label_models *lm, unsigned c)
+/* Symbol -> magnitude base and raw bit count. */
+static const uint8_t sym_bits[16] = { 0, 0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 0 };
+static const uint8_t sym_base[16] = { 0, 1, 1, 2, 2, 3, 3, 5, 5, 9, 9, 17, 17, 33, 33, 0 };
+
+/* ---- encoder: models run forward in decoding order, rANS encodes afterwards ---- */
+
+struct encoder {
+	struct rans_record rec[2];
+	struct bitwriter bits;
+	struct stream_models m[2];
+};
+
+static void put_residual(struct encoder *e, int stream, int plane, unsigned c, int32_t d)
 {
-	static const int8_t value[16] = { 0, 1, -1 }; /* other symbols only in corrupt streams */
-	return value[rc_decode_sym16(d, &lm->sym[c])];
+	uint32_t v = mag(d);
+	unsigned s;
+	if (v == 0) {
+		s = 0;
+	} else if (v < ESCAPE_BASE) {
+		uint32_t a = v - 1;
+		unsigned k = a ? 32 - (unsigned)__builtin_clz(a) : 0; /* a in [2^(k-1), 2^k) */
+		s = 2 * k + 1 + (d < 0);
+	} else {
+		s = ESCAPE_SYMBOL;
+	}
+	rans_record_put(&e->rec[stream], &e->m[stream].res[plane][c], s);
+	if (s != ESCAPE_SYMBOL) {
+		bitwriter_put(&e->bits, v - sym_base[s], sym_bits[s]);
+		return;
+	}
+	uint32_t x = v - ESCAPE_BASE + 1; /* >= 1, < 2^29 */
+	unsigned k = 31 - (unsigned)__builtin_clz(x);
+	bitwriter_put(&e->bits, d < 0, 1);
+	rans_record_put(&e->rec[stream], &e->m[stream].esc[plane], k < 15 ? k : 15);
+	if (k >= 15)
+		bitwriter_put(&e->bits, k, 5);
+	if (k > 16) {
+		bitwriter_put(&e->bits, x >> 16 & ((1u << (k - 16)) - 1), k - 16);
+		bitwriter_put(&e->bits, x & 0xffff, 16);
+	} else {
+		bitwriter_put(&e->bits, x & ((1u << k) - 1), k);
+	}
+}
+
+static void put_plane(struct encoder *e, int p, const int32_t *v, uint32_t w, uint32_t h)
+{
+	uint32_t row = 0;
+	for (; row + 1 < h; row += 2)
+		for (uint32_t u = 0; u < w; u++) {
+			put_residual(e, 0, p, plane_context(v, w, u, row), v[row * w + u]);
+			put_residual(e, 1, p, plane_context(v, w, u, row + 1), v[(row + 1) * w + u]);
+		}
+	if (row < h)
+		for (uint32_t u = 0; u < w; u++)
+			put_residual(e, 0, p, plane_context(v, w, u, row), v[row * w + u]);
+}
+
+static inline unsigned label_symbol(int8_t r)
+{
+	return r == 0 ? 0 : r > 0 ? 1 : 2;
 }
 
 int relief_patch_encode(const struct relief_patch_geom *g, bool root, const int8_t *labels,
                         const int32_t *residuals, uint8_t **out, size_t *out_size)
 {
-	struct rc_encoder e[2];
-	rc_encoder_init(&e[0]);
-	rc_encoder_init(&e[1]);
-	struct stream_models *m = malloc(sizeof(*m) * 2);
-	if (!m)
+	struct encoder *e = calloc(1, sizeof(*e));
+	if (!e)
 		return -ENOMEM;
-	stream_models_init(&m[0]);
-	stream_models_init(&m[1]);
+	stream_models_init(&e->m[0]);
+	stream_models_init(&e->m[1]);
 	if (root) {
-		encode_plane(e, m, 0, residuals, g->E, g->E);
-	} else {
-		for (uint32_t j = 0; j < g->L; j++)
-			for (uint32_t i = 0; i < g->L; i++) {
-				int8_t r = labels[j * g->L + i];
-				unsigned c = label_context(labels, g->L, i, j);
-				rc_encode_sym16(&e[j & 1], &m[j & 1].labels.sym[c], r == 0 ? 0 : r > 0 ? 1 : 2);
-			}
-		struct plane pl[3];
-		planes(g, pl);
-		const int32_t *v = residuals;
-		for (int p = 0; p < 3; p++) {
-			encode_plane(e, m, p, v, pl[p].w, pl[p].h);
-			v += (size_t)pl[p].w * pl[p].h;
-		}
-	}
-	free(m);
-	int ret = rc_encoder_flush(&e[0]);
-	if (ret == 0)
-		ret = rc_encoder_flush(&e[1]);
-	uint8_t *buf = NULL;
-	if (ret == 0 && e[0].size > UINT32_MAX)
-		ret = -EOVERFLOW;
-	if (ret == 0 && !(buf = malloc(4 + e[0].size + e[1].size)))
-		ret = -ENOMEM;
-	if (ret == 0) {
-		uint32_t n0 = (uint32_t)e[0].size;
-		buf[0] = (uint8_t)n0;
-		buf[1] = (uint8_t)(n0 >> 8);
-		buf[2] = (uint8_t)(n0 >> 16);
-		buf[3] = (uint8_t)(n0 >> 24);
-		memcpy(buf + 4, e[0].buf, e[0].size);
-		memcpy(buf + 4 + e[0].size, e[1].buf, e[1].size);
-		*out = buf;
-		*out_size = 4 + e[0].size + e[1].size;
-	}
-	rc_encoder_finish(&e[0]);
-	rc_encoder_finish(&e[1]);
-	return ret;
-}
-
-int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const uint8_t *buf, size_t size,
-                                int8_t *labels, int32_t *residuals)
-{
-	if (size < 4)
-		return -EBADMSG;
-	uint32_t n0 = (uint32_t)buf[0] | (uint32_t)buf[1] << 8 | (uint32_t)buf[2] << 16 | (uint32_t)buf[3] << 24;
-	if (n0 > size - 4)
-		return -EBADMSG;
-	struct rc_decoder d[2];
-	rc_decoder_init(&d[0], buf + 4, n0);
-	rc_decoder_init(&d[1], buf + 4 + n0, size - 4 - n0);
-	struct stream_models *m = malloc(sizeof(*m) * 2);
-	if (!m)
-		return -ENOMEM;
-	stream_models_init(&m[0]);
-	stream_models_init(&m[1]);
-	if (root) {
-		decode_plane(d, m, 0, residuals, g->E, g->E);
+		put_plane(e, 0, residuals, g->E, g->E);
 	} else {
 		const uint32_t L = g->L;
 		uint32_t j = 0;
 		for (; j + 1 < L; j += 2)
 			for (uint32_t i = 0; i < L; i++) {
-				labels[j * L + i] = decode_label(&d[0], &m[0].labels, label_context(labels, L, i, j));
-				labels[(j + 1) * L + i] = decode_label(&d[1], &m[1].labels, label_context(labels, L, i, j + 1));
+				rans_record_put(&e->rec[0], &e->m[0].labels[label_context(labels, L, i, j)],
+				                label_symbol(labels[j * L + i]));
+				rans_record_put(&e->rec[1], &e->m[1].labels[label_context(labels, L, i, j + 1)],
+				                label_symbol(labels[(j + 1) * L + i]));
 			}
 		if (j < L)
 			for (uint32_t i = 0; i < L; i++)
-				labels[j * L + i] = decode_label(&d[0], &m[0].labels, label_context(labels, L, i, j));
+				rans_record_put(&e->rec[0], &e->m[0].labels[label_context(labels, L, i, j)],
+				                label_symbol(labels[j * L + i]));
+		struct plane pl[3];
+		planes(g, pl);
+		const int32_t *v = residuals;
+		for (int p = 0; p < 3; p++) {
+			put_plane(e, p, v, pl[p].w, pl[p].h);
+			v += (size_t)pl[p].w * pl[p].h;
+		}
+	}
+	bitwriter_flush(&e->bits);
+	uint8_t *s0 = NULL, *s1 = NULL, *buf = NULL;
+	size_t n0 = 0, n1 = 0, nb = e->bits.size;
+	int ret = e->bits.oom ? -ENOMEM : 0;
+	if (ret == 0)
+		ret = rans_encode(&e->rec[0], &s0, &n0);
+	if (ret == 0)
+		ret = rans_encode(&e->rec[1], &s1, &n1);
+	if (ret == 0 && (n0 > UINT32_MAX || n1 > UINT32_MAX || nb > UINT32_MAX))
+		ret = -EOVERFLOW;
+	if (ret == 0 && !(buf = malloc(12 + n0 + n1 + nb)))
+		ret = -ENOMEM;
+	if (ret == 0) {
+		const size_t sizes[3] = { n0, n1, nb };
+		for (int i = 0; i < 3; i++)
+			for (int b = 0; b < 4; b++)
+				buf[4 * i + b] = (uint8_t)(sizes[i] >> (8 * b));
+		memcpy(buf + 12, s0, n0);
+		memcpy(buf + 12 + n0, s1, n1);
+		if (nb)
+			memcpy(buf + 12 + n0 + n1, e->bits.buf, nb);
+		*out = buf;
+		*out_size = 12 + n0 + n1 + nb;
+	}
+	free(s0);
+	free(s1);
+	free(e->rec[0].sym);
+	free(e->rec[1].sym);
+	free(e->bits.buf);
+	free(e);
+	return ret;
+}
+
+/* ---- decoder ---- */
+
+struct decoder {
+	struct rans_dec d[2];
+	struct bitreader bits;
+	bool corrupt;
+};
+
+__attribute__((always_inline)) static inline int32_t get_residual(struct decoder *dc, int stream,
+                                                                    struct rc_cdf16 *m, struct rc_cdf16 *esc)
+{
+	unsigned s = rans_decode_sym16(&dc->d[stream], m);
+	if (__builtin_expect(s != ESCAPE_SYMBOL, 1)) {
+		int32_t v = (int32_t)(sym_base[s] + bitreader_get(&dc->bits, sym_bits[s]));
+		return (s & 1) || s == 0 ? v : -v;
+	}
+	unsigned neg = bitreader_get(&dc->bits, 1);
+	unsigned k = rans_decode_sym16(&dc->d[stream], esc);
+	if (k == 15)
+		k = bitreader_get(&dc->bits, 5);
+	if (k > MAX_EXP) {
+		dc->corrupt = true;
+		return 0;
+	}
+	uint32_t x;
+	if (k > 16) {
+		x = bitreader_get(&dc->bits, k - 16) << 16;
+		x |= bitreader_get(&dc->bits, 16);
+	} else {
+		x = bitreader_get(&dc->bits, k);
+	}
+	int32_t v = (int32_t)(((1u << k) | x) - 1 + ESCAPE_BASE);
+	return neg ? -v : v;
+}
+
+static void get_plane(struct decoder *dc, struct stream_models m[2], int p, int32_t *v, uint32_t w, uint32_t h)
+{
+	uint32_t row = 0;
+	for (; row + 1 < h; row += 2) {
+		int32_t *a = v + row * w, *b = a + w;
+		for (uint32_t u = 0; u < w; u++) {
+			a[u] = get_residual(dc, 0, &m[0].res[p][plane_context(v, w, u, row)], &m[0].esc[p]);
+			b[u] = get_residual(dc, 1, &m[1].res[p][plane_context(v, w, u, row + 1)], &m[1].esc[p]);
+		}
+	}
+	if (row < h)
+		for (uint32_t u = 0; u < w; u++)
+			v[row * w + u] = get_residual(dc, 0, &m[0].res[p][plane_context(v, w, u, row)], &m[0].esc[p]);
+}
+
+static inline int8_t get_label(struct rans_dec *d, struct rc_cdf16 *m)
+{
+	static const int8_t value[16] = { 0, 1, -1 }; /* other symbols only in corrupt streams */
+	return value[rans_decode_sym16(d, m)];
+}
+
+int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const uint8_t *buf, size_t size,
+                                int8_t *labels, int32_t *residuals)
+{
+	if (size < 12)
+		return -EBADMSG;
+	uint64_t n[3];
+	for (int i = 0; i < 3; i++)
+		n[i] = (uint32_t)buf[4 * i] | (uint32_t)buf[4 * i + 1] << 8 | (uint32_t)buf[4 * i + 2] << 16 |
+		       (uint32_t)buf[4 * i + 3] << 24;
+	if (n[0] + n[1] + n[2] != size - 12)
+		return -EBADMSG;
+	struct decoder dc = { .corrupt = false };
+	rans_dec_init(&dc.d[0], buf + 12, n[0]);
+	rans_dec_init(&dc.d[1], buf + 12 + n[0], n[1]);
+	bitreader_init(&dc.bits, buf + 12 + n[0] + n[1], n[2]);
+	struct stream_models *m = malloc(sizeof(*m) * 2);
+	if (!m)
+		return -ENOMEM;
+	stream_models_init(&m[0]);
+	stream_models_init(&m[1]);
+	if (root) {
+		get_plane(&dc, m, 0, residuals, g->E, g->E);
+	} else {
+		const uint32_t L = g->L;
+		uint32_t j = 0;
+		for (; j + 1 < L; j += 2)
+			for (uint32_t i = 0; i < L; i++) {
+				labels[j * L + i] = get_label(&dc.d[0], &m[0].labels[label_context(labels, L, i, j)]);
+				labels[(j + 1) * L + i] = get_label(&dc.d[1], &m[1].labels[label_context(labels, L, i, j + 1)]);
+			}
+		if (j < L)
+			for (uint32_t i = 0; i < L; i++)
+				labels[j * L + i] = get_label(&dc.d[0], &m[0].labels[label_context(labels, L, i, j)]);
 		struct plane pl[3];
 		planes(g, pl);
 		int32_t *v = residuals;
 		for (int p = 0; p < 3; p++) {
-			decode_plane(d, m, p, v, pl[p].w, pl[p].h);
+			get_plane(&dc, m, p, v, pl[p].w, pl[p].h);
 			v += (size_t)pl[p].w * pl[p].h;
 		}
 	}
 	free(m);
-	return d[0].overrun || d[1].overrun ? -EBADMSG : 0;
+	bool ok = !dc.corrupt && rans_dec_done(&dc.d[0]) && rans_dec_done(&dc.d[1]) &&
+	          dc.bits.consumed <= dc.bits.available && dc.bits.available - dc.bits.consumed < 8;
+	return ok ? 0 : -EBADMSG;
 }
 
 static inline unsigned mask_context(const uint8_t *m, uint32_t P, uint32_t x, uint32_t y)

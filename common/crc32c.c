@@ -1,10 +1,11 @@
-/* Table-driven CRC-32C, byte at a time. Written here because Debian 12 packages no
- * CRC-32C library; the table is built once, thread-safely, on first use. */
+/* Table-driven CRC-32C, slicing by 8 (eight bytes per step, 8 KiB of tables). Written here
+ * because Debian 12 packages no CRC-32C library; the tables are built once, thread-safely,
+ * on first use. */
 #include <pthread.h>
 
 #include "crc32c.h"
 
-static uint32_t table[256];
+static uint32_t table[8][256];
 static pthread_once_t table_once = PTHREAD_ONCE_INIT;
 
 static void table_init(void)
@@ -13,8 +14,11 @@ static void table_init(void)
 		uint32_t c = i;
 		for (int k = 0; k < 8; k++)
 			c = c & 1 ? (c >> 1) ^ 0x82F63B78u : c >> 1;
-		table[i] = c;
+		table[0][i] = c;
 	}
+	for (uint32_t i = 0; i < 256; i++)
+		for (int t = 1; t < 8; t++)
+			table[t][i] = (table[t - 1][i] >> 8) ^ table[0][table[t - 1][i] & 0xff];
 }
 
 uint32_t relief_crc32c(uint32_t crc, const void *data, size_t size)
@@ -22,7 +26,15 @@ uint32_t relief_crc32c(uint32_t crc, const void *data, size_t size)
 	pthread_once(&table_once, table_init);
 	const uint8_t *p = data;
 	crc = ~crc;
+	while (size >= 8) {
+		uint32_t lo = crc ^ ((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24);
+		uint32_t hi = (uint32_t)p[4] | (uint32_t)p[5] << 8 | (uint32_t)p[6] << 16 | (uint32_t)p[7] << 24;
+		crc = table[7][lo & 0xff] ^ table[6][(lo >> 8) & 0xff] ^ table[5][(lo >> 16) & 0xff] ^ table[4][lo >> 24] ^
+		      table[3][hi & 0xff] ^ table[2][(hi >> 8) & 0xff] ^ table[1][(hi >> 16) & 0xff] ^ table[0][hi >> 24];
+		p += 8;
+		size -= 8;
+	}
 	while (size--)
-		crc = table[(crc ^ *p++) & 0xff] ^ (crc >> 8);
+		crc = table[0][(crc ^ *p++) & 0xff] ^ (crc >> 8);
 	return ~crc;
 }

@@ -118,6 +118,17 @@ uint32_t rc_decode_direct(struct rc_decoder *d, unsigned n)
 	return v;
 }
 
+/* Lane 0 stays 0: its target is 0 and it starts at 0. */
+#define T(i, s) (int16_t)((i) <= (s) ? 2 * (i) : (1 << RC_CDF_BITS) - 2 * (16 - (i)))
+#define ROW(s) { T(0, s), T(1, s), T(2, s), T(3, s), T(4, s), T(5, s), T(6, s), T(7, s), \
+                 T(8, s), T(9, s), T(10, s), T(11, s), T(12, s), T(13, s), T(14, s), T(15, s) }
+const int16_t rc_cdf16_target[16][16] = {
+	ROW(0), ROW(1), ROW(2), ROW(3), ROW(4), ROW(5), ROW(6), ROW(7),
+	ROW(8), ROW(9), ROW(10), ROW(11), ROW(12), ROW(13), ROW(14), ROW(15),
+};
+#undef ROW
+#undef T
+
 void rc_cdf16_init(struct rc_cdf16 *m)
 {
 	for (unsigned i = 0; i < 16; i++)

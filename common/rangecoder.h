@@ -131,16 +131,41 @@ struct rc_cdf16 {
 void rc_cdf16_init(struct rc_cdf16 *m);
 void rc_encode_sym16(struct rc_encoder *e, struct rc_cdf16 *m, unsigned s);
 
+/* rc_cdf16_target[s] is the target CDF after symbol s (see above). */
+extern const int16_t rc_cdf16_target[16][16];
+
 static inline void rc_cdf16_update(struct rc_cdf16 *m, unsigned s)
 {
-	/* Branch-free over all 16 lanes so that the compiler emits SIMD code; lane 0 stays 0
-	 * because its target is 0 and it starts at 0. */
-	for (int i = 0; i < 16; i++) {
-		int16_t low = (int16_t)(2 * i), high = (int16_t)((1 << RC_CDF_BITS) - 2 * (16 - i));
-		int16_t mask = (int16_t)-(i > (int)s);
-		int16_t t = (int16_t)((low & ~mask) | (high & mask));
-		m->c[i] = (int16_t)(m->c[i] + ((int16_t)(t - m->c[i]) >> RC_CDF_RATE));
+	const int16_t *t = rc_cdf16_target[s];
+#ifdef __SSE2__
+	for (int h = 0; h < 16; h += 8) {
+		__m128i c = _mm_loadu_si128((const __m128i *)&m->c[h]);
+		__m128i d = _mm_srai_epi16(_mm_sub_epi16(_mm_loadu_si128((const __m128i *)&t[h]), c), RC_CDF_RATE);
+		_mm_storeu_si128((__m128i *)&m->c[h], _mm_add_epi16(c, d));
 	}
+#else
+	for (int i = 0; i < 16; i++)
+		m->c[i] = (int16_t)(m->c[i] + ((int16_t)(t[i] - m->c[i]) >> RC_CDF_RATE));
+#endif
+}
+
+/* The symbol s with c[s] <= v < c[s + 1] (c[16] = 2^14), v >= 0: branch-free. */
+__attribute__((always_inline)) static inline unsigned rc_cdf16_find(const struct rc_cdf16 *m, int16_t vq)
+{
+#ifdef __SSE2__
+	__m128i q = _mm_set1_epi16(vq);
+	__m128i gt0 = _mm_cmpgt_epi16(_mm_loadu_si128((const __m128i *)&m->c[0]), q);
+	__m128i gt1 = _mm_cmpgt_epi16(_mm_loadu_si128((const __m128i *)&m->c[8]), q);
+	/* c is increasing, so the lanes with c > v form a suffix: the first set bit of the
+	 * mask is lane s + 1 (none set: s = 15). */
+	unsigned mask = (unsigned)_mm_movemask_epi8(_mm_packs_epi16(gt0, gt1));
+	return (unsigned)__builtin_ctz(mask | 0x10000u) - 1u;
+#else
+	unsigned s = 0;
+	for (int i = 1; i < 16; i++)
+		s += m->c[i] <= vq;
+	return s;
+#endif
 }
 
 __attribute__((always_inline)) static inline unsigned rc_decode_sym16(struct rc_decoder *d, struct rc_cdf16 *m)
@@ -150,20 +175,7 @@ __attribute__((always_inline)) static inline unsigned rc_decode_sym16(struct rc_
 	 * (c[0] = 0 always counts, so s = count - 1). A corrupt stream may give code >= range;
 	 * the quotient is clamped and the result is garbage, never out of bounds. */
 	uint32_t v = d->code / r;
-	int16_t vq = (int16_t)(v > 0x7fff ? 0x7fff : v);
-#ifdef __SSE2__
-	__m128i q = _mm_set1_epi16(vq);
-	__m128i gt0 = _mm_cmpgt_epi16(_mm_loadu_si128((const __m128i *)&m->c[0]), q);
-	__m128i gt1 = _mm_cmpgt_epi16(_mm_loadu_si128((const __m128i *)&m->c[8]), q);
-	/* c is increasing, so the lanes with c > v form a suffix: the first set bit of the
-	 * mask is lane s + 1 (none set: s = 15). */
-	unsigned mask = (unsigned)_mm_movemask_epi8(_mm_packs_epi16(gt0, gt1));
-	unsigned s = (unsigned)__builtin_ctz(mask | 0x10000u) - 1u;
-#else
-	unsigned s = 0;
-	for (int i = 1; i < 16; i++)
-		s += m->c[i] <= vq;
-#endif
+	unsigned s = rc_cdf16_find(m, (int16_t)(v > 0x7fff ? 0x7fff : v));
 	uint32_t lo = (uint32_t)m->c[s] * r;
 	uint32_t hi = s == 15 ? d->range : (uint32_t)m->c[s + 1] * r;
 	d->code -= lo;
