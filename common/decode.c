@@ -10,9 +10,10 @@ int relief_decoder_init(struct relief_decoder *d, const struct relief_file *f)
 {
 	const struct relief_patch_geom *g = &f->layout.geom;
 	d->file = f;
+	d->stream = malloc(f->max_stream ? f->max_stream : 1);
 	d->labels = malloc(g->n_labels);
 	d->residuals = malloc(sizeof(int32_t) * (g->E * g->E > g->n_residuals ? g->E * g->E : g->n_residuals));
-	if (!d->labels || !d->residuals) {
+	if (!d->stream || !d->labels || !d->residuals) {
 		relief_decoder_finish(d);
 		return -ENOMEM;
 	}
@@ -23,8 +24,10 @@ void relief_decoder_finish(struct relief_decoder *d)
 {
 	if (!d)
 		return;
+	free(d->stream);
 	free(d->labels);
 	free(d->residuals);
+	d->stream = NULL;
 	d->labels = NULL;
 	d->residuals = NULL;
 }
@@ -32,9 +35,8 @@ void relief_decoder_finish(struct relief_decoder *d)
 int relief_decoder_symbols(struct relief_decoder *d, uint32_t id)
 {
 	const struct relief_patch_geom *g = &d->file->layout.geom;
-	const uint8_t *data;
 	size_t size;
-	int ret = relief_file_stream(d->file, id, &data, &size);
+	int ret = relief_file_read_stream(d->file, id, d->stream, &size);
 	if (ret == -ENOENT) { /* empty patch */
 		memset(d->labels, 0, g->n_labels);
 		memset(d->residuals, 0, sizeof(int32_t) * g->n_residuals);
@@ -42,7 +44,7 @@ int relief_decoder_symbols(struct relief_decoder *d, uint32_t id)
 	}
 	if (ret < 0)
 		return ret;
-	return relief_patch_decode_symbols(g, id == 0, data, size, d->labels, d->residuals);
+	return relief_patch_decode_symbols(g, id == 0, d->stream, size, d->labels, d->residuals);
 }
 
 int relief_decoder_patch(struct relief_decoder *d, uint32_t id, const int32_t *parent, int32_t *block)

@@ -11,6 +11,7 @@
 
 struct relief_decoder {
 	const struct relief_file *file; /* borrowed */
+	uint8_t *stream;                /* max_stream bytes */
 	int8_t *labels;
 	int32_t *residuals;
 };
@@ -19,7 +20,7 @@ int relief_decoder_init(struct relief_decoder *d, const struct relief_file *f);
 void relief_decoder_finish(struct relief_decoder *d);
 
 /* Entropy stage only (what the GPU path runs on the CPU): labels and residuals of patch id.
- * -EBADMSG for a CRC mismatch or a corrupt stream. */
+ * -EBADMSG for a CRC mismatch or a corrupt stream, -EIO when the file lost the stream. */
 int relief_decoder_symbols(struct relief_decoder *d, uint32_t id);
 /* Full decode of patch id into `block` (E x E) from its parent's block (NULL for the root). */
 int relief_decoder_patch(struct relief_decoder *d, uint32_t id, const int32_t *parent, int32_t *block);

@@ -5,7 +5,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -257,7 +256,7 @@ void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
 static int validate_body(struct relief_file *f, char *err, size_t err_size)
 {
 	const struct relief_header *h = &f->hdr;
-	const uint8_t *b = f->base;
+	const uint8_t *b = f->meta;
 	uint64_t idx_len = (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE;
 	size_t be_per = relief_block_errors_per_patch(h->patch_size);
 	uint64_t be_len = (uint64_t)h->patch_count * be_per;
@@ -285,7 +284,8 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 		else if (r.flags & RELIEF_PATCH_EMPTY) {
 			if (r.size || r.offset || (r.flags & RELIEF_PATCH_MASKED))
 				ret = bad(err, err_size, "patch %u (level %u, %u,%u): empty patch with data", id, l, px, py);
-		} else if (r.offset > h->data_size || r.size > h->data_size - r.offset || r.size == 0)
+		} else if (r.offset > h->data_size || r.size > h->data_size - r.offset || r.size == 0 ||
+		           r.size > (64u << 20))
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): stream [%llu, +%u) outside the data section",
 			          id, l, px, py, (unsigned long long)r.offset, r.size);
 		else if (!isfinite(r.height_min) || !isfinite(r.height_max) || r.height_min > r.height_max ||
@@ -301,6 +301,8 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 		} else if (r.mask_offset || r.mask_size) {
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
 		}
+		if (ret == 0 && !(r.flags & RELIEF_PATCH_EMPTY) && r.size > f->max_stream)
+			f->max_stream = r.size;
 		if (ret == 0 && id > 0 && !(r.flags & RELIEF_PATCH_EMPTY)) {
 			/* A patch with data needs a parent with data: decoding walks down from the root. */
 			uint32_t parent = relief_patch_id(l - 1, px / 2, py / 2);
@@ -318,14 +320,13 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	return ret;
 }
 
-static int open_image(struct relief_file *f, char *err, size_t err_size)
+/* Validates the metadata in f->meta (header already parsed) and copies the CRS text. */
+static int open_meta(struct relief_file *f, char *err, size_t err_size)
 {
-	int ret = relief_header_parse(f->base, f->size, &f->hdr, &f->layout, err, err_size);
+	int ret = validate_body(f, err, err_size);
 	if (ret < 0)
 		return ret;
-	if ((ret = validate_body(f, err, err_size)) < 0)
-		return ret;
-	f->crs = strndup((const char *)f->base + f->hdr.crs_offset, f->hdr.crs_size);
+	f->crs = strndup((const char *)f->meta + f->hdr.crs_offset, f->hdr.crs_size);
 	return f->crs ? 0 : -ENOMEM;
 }
 
@@ -334,14 +335,34 @@ int relief_file_open_memory(const void *buf, size_t size, struct relief_file **o
 	struct relief_file *f = calloc(1, sizeof(*f));
 	if (!f)
 		return -ENOMEM;
-	f->base = buf;
-	f->size = size;
-	int ret = open_image(f, err, err_size);
+	f->fd = -1;
+	f->image = buf;
+	f->meta = buf;
+	int ret = relief_header_parse(buf, size, &f->hdr, &f->layout, err, err_size);
+	if (ret == 0)
+		ret = open_meta(f, err, err_size);
 	if (ret < 0) {
 		relief_file_close(f);
 		return ret;
 	}
 	*out = f;
+	return 0;
+}
+
+/* pread() until `n` bytes or end of file; -EIO on a short read. */
+static int read_at(int fd, void *buf, size_t n, uint64_t off)
+{
+	size_t done = 0;
+	while (done < n) {
+		ssize_t r = pread(fd, (uint8_t *)buf + done, n - done, (off_t)(off + done));
+		if (r < 0 && errno == EINTR)
+			continue;
+		if (r < 0)
+			return -errno;
+		if (r == 0)
+			return -EIO;
+		done += (size_t)r;
+	}
 	return 0;
 }
 
@@ -360,60 +381,77 @@ int relief_file_open(const char *path, struct relief_file **out, char *err, size
 		snprintf(err, err_size, "%s", e == EINVAL ? "not a regular file" : strerror(e));
 		return -e;
 	}
-	if ((uint64_t)st.st_size < RELIEF_HEADER_SIZE) {
-		close(fd);
-		return bad(err, err_size, "file too short for a header (%lld bytes, need %u)", (long long)st.st_size,
-		           RELIEF_HEADER_SIZE);
-	}
-	void *map = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_PRIVATE, fd, 0);
-	int e = errno;
-	close(fd);
-	if (map == MAP_FAILED) {
-		snprintf(err, err_size, "mmap: %s", strerror(e));
-		return -e;
-	}
 	struct relief_file *f = calloc(1, sizeof(*f));
 	if (!f) {
-		munmap(map, (size_t)st.st_size);
+		close(fd);
 		return -ENOMEM;
 	}
-	f->base = map;
-	f->size = (size_t)st.st_size;
-	f->mapped = true;
-	int ret = open_image(f, err, err_size);
-	if (ret < 0) {
-		relief_file_close(f);
-		return ret;
+	f->fd = fd;
+	uint8_t head[RELIEF_HEADER_SIZE];
+	size_t size = (size_t)st.st_size;
+	int ret;
+	if (size < RELIEF_HEADER_SIZE) {
+		ret = bad(err, err_size, "file too short for a header (%zu bytes, need %u)", size, RELIEF_HEADER_SIZE);
+		goto fail;
 	}
+	if ((ret = read_at(fd, head, sizeof(head), 0)) < 0) {
+		snprintf(err, err_size, "reading the header: %s", strerror(-ret));
+		goto fail;
+	}
+	if ((ret = relief_header_parse(head, size, &f->hdr, &f->layout, err, err_size)) < 0)
+		goto fail;
+	/* data_offset <= file size was checked: the copy is bounded by the real file. */
+	f->meta_owned = malloc(f->hdr.data_offset);
+	if (!f->meta_owned) {
+		ret = -ENOMEM;
+		goto fail;
+	}
+	if ((ret = read_at(fd, f->meta_owned, f->hdr.data_offset, 0)) < 0) {
+		snprintf(err, err_size, "reading the index: %s", strerror(-ret));
+		goto fail;
+	}
+	f->meta = f->meta_owned;
+	if ((ret = open_meta(f, err, err_size)) < 0)
+		goto fail;
 	*out = f;
 	return 0;
+fail:
+	relief_file_close(f);
+	return ret;
 }
 
 void relief_file_close(struct relief_file *f)
 {
 	if (!f)
 		return;
-	if (f->mapped && f->base)
-		munmap((void *)f->base, f->size);
+	if (f->fd >= 0)
+		close(f->fd);
+	free(f->meta_owned);
 	free(f->crs);
 	free(f);
 }
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r)
 {
-	relief_record_read(f->base + f->hdr.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, r);
+	relief_record_read(f->meta + f->hdr.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, r);
 }
 
-int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t **data, size_t *size)
+int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size)
 {
 	struct relief_patch_record r;
 	relief_file_record(f, id, &r);
 	if (r.flags & RELIEF_PATCH_EMPTY)
 		return -ENOENT;
-	const uint8_t *p = f->base + f->hdr.data_offset + r.offset;
-	if (crc_differs(relief_crc32c(0, p, r.size), r.crc))
+	uint64_t off = f->hdr.data_offset + r.offset;
+	if (f->image) {
+		memcpy(buf, f->image + off, r.size);
+	} else {
+		int ret = read_at(f->fd, buf, r.size, off);
+		if (ret < 0)
+			return ret == -EIO ? -EIO : ret;
+	}
+	if (crc_differs(relief_crc32c(0, buf, r.size), r.crc))
 		return -EBADMSG;
-	*data = p;
 	*size = r.size;
 	return 0;
 }
@@ -421,7 +459,7 @@ int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t *
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps)
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
-	const uint8_t *p = f->base + f->hdr.block_errors_offset + (uint64_t)id * n;
+	const uint8_t *p = f->meta + f->hdr.block_errors_offset + (uint64_t)id * n;
 	const double unit = f->hdr.tolerance / 64.0;
 	for (size_t i = 0; i < n; i++)
 		eps[i] = relief_block_error_decode(p[i], unit);
@@ -440,5 +478,5 @@ int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask)
 		memset(mask, 1, n);
 		return 0;
 	}
-	return relief_mask_decode(f->hdr.patch_size, f->base + f->hdr.masks_offset + r.mask_offset, r.mask_size, mask);
+	return relief_mask_decode(f->hdr.patch_size, f->meta + f->hdr.masks_offset + r.mask_offset, r.mask_size, mask);
 }

@@ -6,6 +6,12 @@
  * message naming what is wrong, never an out-of-bounds read. Patch streams carry their own
  * CRC32C, checked when a stream is fetched, so one damaged patch does not make the whole
  * file unreadable.
+ *
+ * Reading: everything before the patch streams (header, index, block errors, masks, CRS) is
+ * read into memory at open; streams are fetched with pread() into the caller's buffer. A
+ * file truncated or replaced while open therefore yields -EIO for the streams it no longer
+ * has, never a SIGBUS, which a memory mapping would raise. Any number of threads may fetch
+ * streams concurrently.
  */
 #pragma once
 
@@ -75,21 +81,24 @@ void relief_record_read(const uint8_t *in, struct relief_patch_record *r);
 struct relief_file {
 	struct relief_header hdr;
 	struct relief_layout layout;
-	const uint8_t *base;
-	size_t size;
-	bool mapped;
-	char *crs; /* NUL-terminated copy of the CRS WKT (may be empty) */
+	const uint8_t *meta;   /* bytes [0, data_offset): owned copy, or the borrowed image */
+	uint8_t *meta_owned;
+	const uint8_t *image;  /* memory images only: the whole file (borrowed) */
+	int fd;                /* files only: CLOEXEC, for pread(); -1 for memory images */
+	uint32_t max_stream;   /* largest patch stream, bytes */
+	char *crs;             /* NUL-terminated copy of the CRS text (may be empty) */
 };
 
-/* Maps and validates a file. err receives a one-line reason on failure. */
+/* Opens and validates a file. err receives a one-line reason on failure. */
 int relief_file_open(const char *path, struct relief_file **out, char *err, size_t err_size);
 /* Validates a file image in memory; the buffer is borrowed and must outlive the file. */
 int relief_file_open_memory(const void *buf, size_t size, struct relief_file **out, char *err, size_t err_size);
 void relief_file_close(struct relief_file *f);
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r);
-/* The patch's stream after its CRC check: -EBADMSG on mismatch, -ENOENT for an empty patch. */
-int relief_file_stream(const struct relief_file *f, uint32_t id, const uint8_t **data, size_t *size);
+/* Reads patch id's stream into buf (at least max_stream bytes) and checks its CRC:
+ * -EBADMSG on mismatch, -EIO if the file no longer holds it, -ENOENT for an empty patch. */
+int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size);
 /* Decoded block errors (upper bounds, metres; +infinity means "never simplify"). */
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps);
 /* 1 byte per interior sample (P x P), 1 = valid. -EBADMSG for a corrupt mask. */

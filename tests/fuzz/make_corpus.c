@@ -52,10 +52,10 @@ static void pack_file(const char *dir, const char *name, struct relief_dem *dem,
 	char err[256];
 	if (relief_file_open_memory(img, size, &f, err, sizeof(err)) < 0)
 		exit(1);
+	uint8_t *d = malloc(f->max_stream);
 	for (uint32_t id = 0; id < f->hdr.patch_count && id < 3; id++) {
-		const uint8_t *d;
 		size_t n;
-		if (relief_file_stream(f, id, &d, &n) < 0)
+		if (relief_file_read_stream(f, id, d, &n) < 0)
 			continue;
 		uint8_t *sel = malloc(n + 1);
 		sel[0] = (uint8_t)(id == 0 ? 1 : (id - 1) << 1); /* root, or child quadrant */
@@ -69,13 +69,14 @@ static void pack_file(const char *dir, const char *name, struct relief_dem *dem,
 		if ((r.flags & RELIEF_PATCH_MASKED) && patch == 65) {
 			uint8_t *m = malloc(r.mask_size + 1);
 			m[0] = 16;
-			memcpy(m + 1, f->base + f->hdr.masks_offset + r.mask_offset, r.mask_size);
+			memcpy(m + 1, f->meta + f->hdr.masks_offset + r.mask_offset, r.mask_size);
 			snprintf(base, sizeof(base), "%s-mask%u", name, id);
 			variants(dir, "patch", base, m, r.mask_size + 1);
 			free(m);
 		}
 		free(sel);
 	}
+	free(d);
 	relief_file_close(f);
 	free(img);
 }
