@@ -76,10 +76,10 @@ int relief_vk_target_init(struct relief_vk *vk, struct relief_vk_target *t, uint
 	t->height = height;
 	VkDeviceSize bytes = (VkDeviceSize)width * height * 4;
 	int ret;
-	if ((ret = relief_vk_image_init(vk, &t->color, VK_FORMAT_R8G8B8A8_UNORM, width, height, 1,
+	if ((ret = relief_vk_image_init(vk, &t->color, VK_FORMAT_R8G8B8A8_UNORM, width, height, 1, VK_IMAGE_VIEW_TYPE_2D,
 	                                VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
 	                                VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
-	    (ret = relief_vk_image_init(vk, &t->depth, VK_FORMAT_D32_SFLOAT, width, height, 1,
+	    (ret = relief_vk_image_init(vk, &t->depth, VK_FORMAT_D32_SFLOAT, width, height, 1, VK_IMAGE_VIEW_TYPE_2D,
 	                                VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
 	                                VK_IMAGE_ASPECT_DEPTH_BIT)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &t->color_readback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0 ||

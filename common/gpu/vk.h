@@ -122,7 +122,8 @@ int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDe
                           VkBufferUsageFlags usage, bool host_visible);
 void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
 
-/* A 2D (array) image with its own allocation and one view over all layers. */
+/* A 2D (array) image with its own allocation and one view over all layers, of view_type
+ * VK_IMAGE_VIEW_TYPE_2D or VK_IMAGE_VIEW_TYPE_2D_ARRAY. */
 struct relief_vk_image {
 	VkImage image;
 	VkDeviceMemory memory;
@@ -131,8 +132,11 @@ struct relief_vk_image {
 	uint32_t width, height, layers;
 };
 int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFormat format,
-                         uint32_t width, uint32_t height, uint32_t layers,
+                         uint32_t width, uint32_t height, uint32_t layers, VkImageViewType view_type,
                          VkImageUsageFlags usage, VkImageAspectFlags aspect);
+/* Bytes an image of these parameters needs (vkGetImageMemoryRequirements), 0 on failure. */
+VkDeviceSize relief_vk_image_bytes(struct relief_vk *vk, VkFormat format, uint32_t width, uint32_t height,
+                                   uint32_t layers, VkImageUsageFlags usage);
 void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img);
 
 int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t size,

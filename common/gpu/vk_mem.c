@@ -82,7 +82,7 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
 }
 
 int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFormat format,
-                         uint32_t width, uint32_t height, uint32_t layers,
+                         uint32_t width, uint32_t height, uint32_t layers, VkImageViewType view_type,
                          VkImageUsageFlags usage, VkImageAspectFlags aspect)
 {
 	memset(img, 0, sizeof(*img));
@@ -116,7 +116,7 @@ int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFo
 	VkImageViewCreateInfo view = {
 		.sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
 		.image = img->image,
-		.viewType = layers > 1 ? VK_IMAGE_VIEW_TYPE_2D_ARRAY : VK_IMAGE_VIEW_TYPE_2D,
+		.viewType = view_type,
 		.format = format,
 		.subresourceRange = { aspect, 0, 1, 0, layers },
 	};
@@ -127,6 +127,30 @@ int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFo
 fail:
 	relief_vk_image_finish(vk, img);
 	return ret;
+}
+
+VkDeviceSize relief_vk_image_bytes(struct relief_vk *vk, VkFormat format, uint32_t width, uint32_t height,
+                                   uint32_t layers, VkImageUsageFlags usage)
+{
+	VkImageCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+		.imageType = VK_IMAGE_TYPE_2D,
+		.format = format,
+		.extent = { width, height, 1 },
+		.mipLevels = 1,
+		.arrayLayers = layers,
+		.samples = VK_SAMPLE_COUNT_1_BIT,
+		.tiling = VK_IMAGE_TILING_OPTIMAL,
+		.usage = usage,
+		.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+	};
+	VkImage image;
+	if (vkCreateImage(vk->device, &info, NULL, &image) != VK_SUCCESS)
+		return 0;
+	VkMemoryRequirements req;
+	vkGetImageMemoryRequirements(vk->device, image, &req);
+	vkDestroyImage(vk->device, image, NULL);
+	return req.size;
 }
 
 void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img)

@@ -1,0 +1,97 @@
+/* The GPU-resident patch cache: texture arrays of patch heights and normals plus a buffer of
+ * tessellation-block errors, one layer per resident patch, filled by GPU decoding.
+ *
+ * Pipeline per patch: a worker thread fetches the stream (pread, CRC check) and
+ * entropy-decodes labels and residuals into a staging slot; the render thread's
+ * relief_patch_cache_update() records batches of compute dispatches that reconstruct the
+ * heights from the parent's layer (bit-exact with the CPU reference decoder) and compute
+ * the normal map, and copies the stored block errors (measured against the original data,
+ * which the GPU does not have) into the patch's slot of the error buffer. update() never
+ * waits: it only takes what the worker finished and what the GPU completed.
+ *
+ * Pools: heights R32_SINT, (P+2)^2 per layer, quantised (metres = 2 delta_l q), so that a
+ * child refines its parent exactly; normals RGBA8_SNORM, P^2 per layer (xyz); block errors
+ * float[blocks^2][4] per layer. Layer count: as many as the GPU memory budget holds (the
+ * three pools' real allocation sizes never exceed it), at most maxImageArrayLayers and the
+ * number of non-empty patches. All images stay in VK_IMAGE_LAYOUT_GENERAL.
+ *
+ * Residency rules: a patch is decoded only from a resident parent, which stays pinned until
+ * its child is resident; a patch with resident children is never evicted; the root is never
+ * evicted. Eviction takes the least recently used patch that no view touched in the last
+ * keep_frames frames. A patch whose stream fails its CRC (or whose file lost it, or whose
+ * values are out of range) is marked bad, logged once, and never drawn: its parent keeps
+ * serving that area.
+ *
+ * Threading: all functions are for the thread that owns the Vulkan queue, except that the
+ * worker runs inside. The file must outlive the cache. */
+#pragma once
+
+#include <stdint.h>
+
+#include "format.h"
+#include "vk.h"
+
+struct relief_patch_cache;
+
+struct relief_patch_cache_options {
+	uint64_t budget_bytes;   /* GPU memory for the three pools (default 256 MiB) */
+	uint32_t staging_slots;  /* entropy-decoded patches waiting for the GPU (default 32) */
+	uint32_t batch;          /* patches per submission (default 16) */
+	uint32_t keep_frames;    /* not evicted within this many frames of a touch (default 2) */
+	uint32_t max_layers;     /* 0, or a cap below what the budget allows (tests) */
+};
+
+enum relief_patch_state {
+	RELIEF_PATCH_ABSENT = 0,
+	RELIEF_PATCH_QUEUED,   /* waiting for or in the worker */
+	RELIEF_PATCH_DECODING, /* symbols ready, waiting for or in a GPU batch */
+	RELIEF_PATCH_RESIDENT,
+	RELIEF_PATCH_BAD,      /* corrupt or lost; never retried */
+	RELIEF_PATCH_NONE,     /* EMPTY in the file: nothing to draw */
+};
+
+struct relief_patch_cache_stats {
+	uint32_t layers, used, free;
+	uint64_t bytes;           /* GPU memory of the pools */
+	uint64_t bytes_per_layer; /* bytes / layers */
+	uint64_t staging_bytes;   /* host-visible staging */
+	uint64_t decoded, evicted, bad, batches;
+	uint64_t gpu_ns;          /* summed GPU time of the decode batches (timestamps) */
+	uint64_t entropy_ns;      /* summed worker time in fetch + entropy decoding */
+};
+
+/* The resources a renderer binds. Owned by the cache. */
+struct relief_patch_pool {
+	VkImageView heights;      /* 2D array, R32_SINT, (P+2)^2 */
+	VkImageView normals;      /* 2D array, R8G8B8A8_SNORM, P^2 */
+	VkBuffer block_errors;    /* float[layers][blocks^2][4], metres */
+	uint32_t layers;
+};
+
+int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
+                              const struct relief_patch_cache_options *opts, const struct relief_logger *log,
+                              struct relief_patch_cache **out);
+void relief_patch_cache_destroy(struct relief_patch_cache *c);
+
+/* Asks for patch id; a lower priority value is served first (e.g. the distance to the
+ * closest camera). Returns 0 if it is resident or on its way, -EAGAIN if its parent is not
+ * resident yet (the parent is requested instead, more urgently), -ENOENT for a patch with
+ * nothing to draw, -EIO for a bad patch, -EINVAL for an id outside the tree. */
+int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float priority);
+/* Marks patch id as used by a view in `frame` (keeps it from eviction for keep_frames). */
+void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame);
+/* Non-blocking progress, once per frame: retires finished GPU batches, submits new ones.
+ * Returns the number of patches that became resident, or a negative errno. */
+int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame);
+/* Blocks until nothing is queued, decoding or in flight (tests, benchmarks). */
+int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame);
+
+enum relief_patch_state relief_patch_cache_state(const struct relief_patch_cache *c, uint32_t id);
+int relief_patch_cache_layer(const struct relief_patch_cache *c, uint32_t id); /* -1 if not resident */
+void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_patch_cache_stats *s);
+const struct relief_patch_pool *relief_patch_cache_pool(const struct relief_patch_cache *c);
+
+/* Copies one layer back to the host (waits): heights (P+2)^2 ints, normals P^2 x 4 snorm8,
+ * block errors blocks^2 x 4 floats; any pointer may be NULL. For tests and tools. */
+int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, int32_t *heights, int8_t *normals,
+                                  float *block_errors);

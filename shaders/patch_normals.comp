@@ -1,0 +1,32 @@
+#version 450
+// Normal map of one decoded patch: central differences of its quantised heights, using the
+// ring for the border samples so that neighbouring patches get the same normal on their
+// shared edge. Output P x P, xyz of the unit normal (x east, y north, z up) as snorm8.
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
+layout(binding = 1, rgba8_snorm) uniform writeonly image2DArray normals;
+
+layout(push_constant) uniform Push {
+	int layer;
+	int P;
+	float q2;      // metres per quantum at the patch's level (2 delta_l)
+	float inv_2sx; // 1 / (2 x spacing) at the patch's level, 1/m
+	float inv_2sy;
+} pc;
+
+void main()
+{
+	ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+	if (p.x >= pc.P || p.y >= pc.P)
+		return;
+	ivec2 s = p + 1; // storage coordinates of the sample; rows grow southwards
+	int e = imageLoad(heights, ivec3(s + ivec2(1, 0), pc.layer)).x;
+	int w = imageLoad(heights, ivec3(s - ivec2(1, 0), pc.layer)).x;
+	int so = imageLoad(heights, ivec3(s + ivec2(0, 1), pc.layer)).x;
+	int no = imageLoad(heights, ivec3(s - ivec2(0, 1), pc.layer)).x;
+	float dhdx = float(e - w) * pc.q2 * pc.inv_2sx;
+	float dhdy = float(no - so) * pc.q2 * pc.inv_2sy; // north is up in world y
+	vec3 n = normalize(vec3(-dhdx, -dhdy, 1.0));
+	imageStore(normals, ivec3(p, pc.layer), vec4(n, 0.0));
+}

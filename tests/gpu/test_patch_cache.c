@@ -1,0 +1,384 @@
+/* The GPU patch cache: GPU decoding is bit-exact with the CPU reference decoder on every
+ * patch of the bundled DEMs; normals and block errors agree with the CPU; the budget and
+ * the residency rules hold under eviction; corrupt and vanished patches are refused without
+ * harming the rest. Validation layer on, zero messages. */
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "../data_load.h"
+#include "decode.h"
+#include "format.h"
+#include "gpu_test.h"
+#include "pack.h"
+#include "patch_cache.h"
+
+static struct relief_vk *vk;
+
+static int setup(void **state)
+{
+	vk = gpu_test_context();
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	unsigned messages = atomic_load(&vk->validation_messages);
+	relief_vk_destroy(vk);
+	return messages ? -1 : 0;
+}
+
+static void pack_dem(enum test_dem d, uint32_t patch, double tol, uint8_t **img, size_t *size)
+{
+	struct relief_dem dem;
+	test_dem_load(d, &dem);
+	struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = tol };
+	assert_int_equal(relief_pack_memory(&dem, &o, img, size, NULL), 0);
+	relief_dem_finish(&dem);
+}
+
+/* Requests every patch, level by level, until nothing more can become resident. */
+static void load_all(struct relief_patch_cache *c, const struct relief_file *f, uint64_t frame)
+{
+	for (uint32_t l = 0; l < f->hdr.levels; l++) {
+		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++) {
+			int r = relief_patch_cache_request(c, id, (float)id);
+			assert_true(r == 0 || r == -ENOENT || r == -EIO);
+		}
+		assert_int_equal(relief_patch_cache_flush(c, frame), 0);
+	}
+}
+
+/* CPU normal of sample (x, y) of a decoded block, as patch_normals.comp computes it. */
+static void cpu_normal(const struct relief_file *f, uint32_t l, const int32_t *b, uint32_t x, uint32_t y, double n[3])
+{
+	const uint32_t E = f->layout.geom.E;
+	double step = (double)(1u << (f->hdr.levels - 1 - l)), q2 = 2 * f->layout.delta[l];
+	const int32_t *s = b + (y + 1) * E + x + 1;
+	double dhdx = (s[1] - s[-1]) * q2 / (2 * f->hdr.spacing_x * step);
+	double dhdy = (s[-(int)E] - s[E]) * q2 / (2 * f->hdr.spacing_y * step);
+	double len = sqrt(dhdx * dhdx + dhdy * dhdy + 1);
+	n[0] = -dhdx / len;
+	n[1] = -dhdy / len;
+	n[2] = 1 / len;
+}
+
+static void check_bit_exact(enum test_dem d, uint32_t patch, double tol)
+{
+	uint8_t *img;
+	size_t size;
+	pack_dem(d, patch, tol, &img, &size);
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, &gpu_test_log, &c), 0);
+	load_all(c, f, 1);
+
+	const struct relief_layout *lay = &f->layout;
+	const uint32_t E = lay->geom.E, P = lay->geom.P;
+	const size_t EE = (size_t)E * E, nb = relief_block_errors_per_patch(P);
+	int32_t *gpu_h = malloc(sizeof(int32_t) * EE);
+	int8_t *gpu_n = malloc((size_t)P * P * 4);
+	float *gpu_e = malloc(sizeof(float) * nb), *cpu_e = malloc(sizeof(float) * nb);
+	uint32_t checked = 0;
+	double worst_normal = 0;
+	for (uint32_t l = 0; l < lay->levels; l++) {
+		int32_t *blocks;
+		assert_int_equal(relief_decode_level_blocks(f, l, 1, &blocks), 0);
+		for (uint32_t i = 0; i < (1u << (2 * l)); i++) {
+			uint32_t id = relief_level_first_id(l) + i;
+			enum relief_patch_state st = relief_patch_cache_state(c, id);
+			if (st == RELIEF_PATCH_NONE)
+				continue;
+			assert_int_equal(st, RELIEF_PATCH_RESIDENT);
+			int layer = relief_patch_cache_layer(c, id);
+			assert_true(layer >= 0);
+			assert_int_equal(relief_patch_cache_read_layer(c, (uint32_t)layer, gpu_h, gpu_n, gpu_e), 0);
+			const int32_t *cpu = blocks + i * EE;
+			if (memcmp(gpu_h, cpu, sizeof(int32_t) * EE) != 0) {
+				for (size_t k = 0; k < EE; k++)
+					if (gpu_h[k] != cpu[k])
+						fail_msg("%s patch %u sample %zu,%zu: GPU %d, CPU %d", test_dem_name(d), id, k % E,
+						         k / E, gpu_h[k], cpu[k]);
+			}
+			relief_file_block_errors(f, id, cpu_e);
+			assert_memory_equal(gpu_e, cpu_e, sizeof(float) * nb);
+			for (uint32_t y = 0; y < P; y++)
+				for (uint32_t x = 0; x < P; x++) {
+					double n[3];
+					cpu_normal(f, l, cpu, x, y, n);
+					for (int k = 0; k < 3; k++) {
+						double g = fmax(gpu_n[(y * P + x) * 4 + k] / 127.0, -1.0);
+						worst_normal = fmax(worst_normal, fabs(g - n[k]));
+					}
+				}
+			checked++;
+		}
+		free(blocks);
+	}
+	/* snorm8 quantisation (1/254) plus float arithmetic */
+	print_message("%s: %u patches bit-exact, block errors equal, worst normal component error %.4f\n",
+	              test_dem_name(d), checked, worst_normal);
+	assert_true(worst_normal <= 0.006);
+	struct relief_patch_cache_stats s;
+	relief_patch_cache_stats(c, &s);
+	assert_int_equal(s.decoded, checked);
+	assert_true(s.bytes <= o.budget_bytes);
+	relief_patch_cache_destroy(c);
+	relief_file_close(f);
+	free(img);
+	free(gpu_h);
+	free(gpu_n);
+	free(gpu_e);
+	free(cpu_e);
+	gpu_test_assert_clean(vk);
+}
+
+static void test_bit_exact_puget(void **state) { check_bit_exact(DEM_PUGET, 129, 1.0); }
+static void test_bit_exact_alps(void **state) { check_bit_exact(DEM_ALPS, 129, 0.5); }
+static void test_bit_exact_lux(void **state) { check_bit_exact(DEM_LUX, 65, 0.25); }
+
+/* Every resident patch's parent is resident. */
+static void assert_tree_consistent(struct relief_patch_cache *c, const struct relief_file *f)
+{
+	for (uint32_t id = 1; id < f->hdr.patch_count; id++) {
+		if (relief_patch_cache_state(c, id) != RELIEF_PATCH_RESIDENT)
+			continue;
+		uint32_t l, px, py;
+		relief_patch_coords(&f->layout, id, &l, &px, &py);
+		assert_int_equal(relief_patch_cache_state(c, relief_patch_id(l - 1, px / 2, py / 2)), RELIEF_PATCH_RESIDENT);
+	}
+}
+
+static void test_budget_and_eviction(void **state)
+{
+	uint8_t *img;
+	size_t size;
+	pack_dem(DEM_PUGET, 129, 2.0, &img, &size);
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	/* A budget below one patch is refused. */
+	struct relief_patch_cache_options tiny = { .budget_bytes = 4096 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &tiny, NULL, &c), -ENOSPC);
+	/* Budgets are honoured exactly, whatever they are. */
+	for (uint64_t mib = 1; mib <= 9; mib += 4) {
+		struct relief_patch_cache_options o = { .budget_bytes = mib << 20 };
+		assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
+		struct relief_patch_cache_stats s;
+		relief_patch_cache_stats(c, &s);
+		assert_true(s.bytes <= o.budget_bytes);
+		assert_true(s.bytes + s.bytes_per_layer > o.budget_bytes || s.layers == 85);
+		assert_int_equal(s.used + s.free, s.layers);
+		relief_patch_cache_destroy(c);
+	}
+	/* Seven layers: root, level 1, and two of level 2 at a time. */
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .max_layers = 7, .keep_frames = 1 };
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
+	uint64_t frame = 1;
+	for (uint32_t id = 0; id < 5; id++)
+		relief_patch_cache_request(c, id, 0);
+	assert_int_equal(relief_patch_cache_flush(c, frame), 0);
+	for (uint32_t id = 0; id < 5; id++)
+		relief_patch_cache_request(c, id, 0);
+	assert_int_equal(relief_patch_cache_flush(c, frame), 0);
+	for (uint32_t id = 0; id < 5; id++)
+		assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_RESIDENT);
+	/* Walk over level 2 (ids 5..20), touching only the level-0/1 patches and the current
+	 * pair: old level-2 patches are evicted, their parents never. */
+	for (uint32_t id = 5; id < 21; id += 2) {
+		frame += 2;
+		for (uint32_t p = 0; p < 5; p++)
+			relief_patch_cache_touch(c, p, frame);
+		for (uint32_t k = id; k < id + 2; k++) {
+			assert_int_equal(relief_patch_cache_request(c, k, 0), 0);
+			relief_patch_cache_touch(c, k, frame);
+		}
+		assert_int_equal(relief_patch_cache_flush(c, frame), 0);
+		assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_RESIDENT);
+		assert_int_equal(relief_patch_cache_state(c, id + 1), RELIEF_PATCH_RESIDENT);
+		assert_tree_consistent(c, f);
+		struct relief_patch_cache_stats s;
+		relief_patch_cache_stats(c, &s);
+		assert_int_equal(s.layers, 7);
+		assert_true(s.used <= 7);
+	}
+	struct relief_patch_cache_stats s;
+	relief_patch_cache_stats(c, &s);
+	assert_int_equal(s.evicted, 16 - 2);
+	for (uint32_t id = 0; id < 5; id++)
+		assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_RESIDENT);
+	/* Nothing can be evicted while everything is in use this frame: flush reports it. */
+	frame++;
+	for (uint32_t id = 0; id < 21; id++)
+		relief_patch_cache_touch(c, id, frame);
+	uint32_t blocked = relief_level_first_id(2) + 2;
+	relief_patch_cache_request(c, blocked, 0);
+	assert_int_equal(relief_patch_cache_flush(c, frame), -ENOSPC);
+	assert_tree_consistent(c, f);
+	relief_patch_cache_destroy(c);
+
+	/* Children go before their parents: three layers hold the root, patch 1 and its child
+	 * 5. Patch 1 is the least recently used but has a resident child, so it stays. */
+	struct relief_patch_cache_options three = { .budget_bytes = 64ull << 20, .max_layers = 3, .keep_frames = 1 };
+	assert_int_equal(relief_patch_cache_create(vk, f, &three, NULL, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	relief_patch_cache_request(c, 1, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	assert_int_equal(relief_patch_cache_request(c, 5, 0), 0); /* (2, 0, 0), child of 1 */
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	relief_patch_cache_touch(c, 5, 10);
+	assert_int_equal(relief_patch_cache_request(c, 2, 0), 0);
+	assert_int_equal(relief_patch_cache_flush(c, 10), -ENOSPC); /* 1 has a child, 5 is in use */
+	assert_int_equal(relief_patch_cache_state(c, 1), RELIEF_PATCH_RESIDENT);
+	assert_int_equal(relief_patch_cache_flush(c, 20), 0);      /* 5 is old now: it goes, 1 stays */
+	assert_int_equal(relief_patch_cache_state(c, 5), RELIEF_PATCH_ABSENT);
+	assert_int_equal(relief_patch_cache_state(c, 1), RELIEF_PATCH_RESIDENT);
+	assert_int_equal(relief_patch_cache_state(c, 2), RELIEF_PATCH_RESIDENT);
+	assert_tree_consistent(c, f);
+	relief_patch_cache_destroy(c);
+	relief_file_close(f);
+	free(img);
+	gpu_test_assert_clean(vk);
+}
+
+/* Closest first, each patch once: with one staging slot, patches are decoded one at a time
+ * in the worker's order. The first request may be taken before the others arrive; the
+ * rest must follow their priorities. Repeated requests decode nothing twice. */
+static void test_priority_and_dedup(void **state)
+{
+	uint8_t *img;
+	size_t size;
+	pack_dem(DEM_PUGET, 129, 1.0, &img, &size);
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .staging_slots = 1, .batch = 1 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	const float prio[5] = { 0, 40, 10, 30, 20 }; /* for ids 1..4 */
+	for (int rep = 0; rep < 3; rep++)
+		for (uint32_t id = 1; id <= 4; id++)
+			assert_int_equal(relief_patch_cache_request(c, id, prio[id]), 0);
+	uint32_t order[4], n = 0;
+	while (n < 4) {
+		assert_true(relief_patch_cache_update(c, 1) >= 0);
+		for (uint32_t id = 1; id <= 4; id++) {
+			bool seen = false;
+			for (uint32_t k = 0; k < n; k++)
+				seen |= order[k] == id;
+			if (!seen && relief_patch_cache_state(c, id) == RELIEF_PATCH_RESIDENT)
+				order[n++] = id;
+		}
+		usleep(200);
+	}
+	for (uint32_t k = 2; k < 4; k++)
+		assert_true(prio[order[k - 1]] < prio[order[k]]);
+	struct relief_patch_cache_stats s;
+	relief_patch_cache_stats(c, &s);
+	assert_int_equal(s.decoded, 5); /* 12 requests, 4 patches (and the root) */
+	relief_patch_cache_destroy(c);
+	relief_file_close(f);
+	free(img);
+	gpu_test_assert_clean(vk);
+}
+
+static unsigned logged_errors;
+static void count_log(void *data, enum relief_log_level level, const char *fmt, va_list ap)
+{
+	if (level == RELIEF_LOG_ERROR)
+		logged_errors++;
+}
+
+static void test_corrupt_patch(void **state)
+{
+	uint8_t *img;
+	size_t size;
+	pack_dem(DEM_PUGET, 129, 1.0, &img, &size);
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	uint32_t victim = relief_patch_id(2, 1, 2);
+	struct relief_patch_record r;
+	relief_file_record(f, victim, &r);
+	img[f->hdr.data_offset + r.offset + r.size / 2] ^= 0x40; /* the stream's CRC no longer matches */
+	struct relief_logger counter = { count_log, NULL };
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, &counter, &c), 0);
+	logged_errors = 0;
+	load_all(c, f, 1);
+	assert_int_equal(relief_patch_cache_state(c, victim), RELIEF_PATCH_BAD);
+	assert_int_equal(logged_errors, 1);
+	/* Asking again neither retries nor logs again; its parent and neighbours are fine. */
+	assert_int_equal(relief_patch_cache_request(c, victim, 0), -EIO);
+	assert_int_equal(relief_patch_cache_flush(c, 2), 0);
+	assert_int_equal(logged_errors, 1);
+	assert_int_equal(relief_patch_cache_state(c, relief_patch_id(1, 0, 1)), RELIEF_PATCH_RESIDENT);
+	uint32_t resident = 0;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++)
+		resident += relief_patch_cache_state(c, id) == RELIEF_PATCH_RESIDENT;
+	/* the victim's four children cannot be decoded without it */
+	assert_int_equal(resident, f->hdr.patch_count - 1 - 4);
+	relief_patch_cache_destroy(c);
+	relief_file_close(f);
+	free(img);
+	gpu_test_assert_clean(vk);
+}
+
+/* The file shrinks under a running cache: the lost patches go bad, nothing crashes. */
+static void test_truncated_at_run_time(void **state)
+{
+	uint8_t *img;
+	size_t size;
+	pack_dem(DEM_ALPS, 129, 1.0, &img, &size);
+	char path[] = "/tmp/relief-cache-XXXXXX";
+	int fd = mkstemp(path);
+	assert_true(fd >= 0);
+	assert_int_equal(write(fd, img, size), (ssize_t)size);
+	close(fd);
+	struct relief_file *f;
+	char err[256];
+	assert_int_equal(relief_file_open(path, &f, err, sizeof(err)), 0);
+	struct relief_logger counter = { count_log, NULL };
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, &counter, &c), 0);
+	assert_int_equal(truncate(path, (off_t)(f->hdr.data_offset + f->hdr.data_size / 2)), 0);
+	unlink(path);
+	logged_errors = 0;
+	load_all(c, f, 1);
+	uint32_t bad = 0, resident = 0;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
+		bad += relief_patch_cache_state(c, id) == RELIEF_PATCH_BAD;
+		resident += relief_patch_cache_state(c, id) == RELIEF_PATCH_RESIDENT;
+	}
+	print_message("truncated file: %u patches resident, %u refused\n", resident, bad);
+	assert_true(bad > 0 && resident > 0);
+	assert_int_equal(logged_errors, bad);
+	relief_patch_cache_destroy(c);
+	relief_file_close(f);
+	free(img);
+	gpu_test_assert_clean(vk);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_bit_exact_puget),
+		cmocka_unit_test(test_bit_exact_alps),
+		cmocka_unit_test(test_bit_exact_lux),
+		cmocka_unit_test(test_budget_and_eviction),
+		cmocka_unit_test(test_priority_and_dedup),
+		cmocka_unit_test(test_corrupt_patch),
+		cmocka_unit_test(test_truncated_at_run_time),
+	};
+	return cmocka_run_group_tests(tests, setup, teardown);
+}
