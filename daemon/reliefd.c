@@ -7,18 +7,58 @@
 #include <string.h>
 
 #include "config.h"
+#include "format.h"
 #include "log.h"
+#include "patch_cache.h"
 #include "relief_version.h"
 #include "vk.h"
+
+/* Opens the terrain, builds the patch cache within the configured budget, decodes the two
+ * coarsest levels and reports the cache. */
+static int check_terrain(struct relief_vk *vk, const struct reliefd_config *cfg, const char *path,
+                         const struct relief_logger *log)
+{
+	char err[512];
+	struct relief_file *f;
+	if (relief_file_open(path, &f, err, sizeof(err)) < 0) {
+		fprintf(stderr, "reliefd: %s: %s\n", path, err);
+		return 1;
+	}
+	struct relief_patch_cache_options o = { .budget_bytes = (uint64_t)cfg->budget_mib << 20 };
+	struct relief_patch_cache *c;
+	int ret = relief_patch_cache_create(vk, f, &o, log, &c);
+	if (ret < 0) {
+		fprintf(stderr, "reliefd: %s: patch cache: %s\n", path, strerror(-ret));
+		relief_file_close(f);
+		return 1;
+	}
+	uint32_t last = relief_level_first_id(f->hdr.levels > 1 ? 2 : 1);
+	for (int pass = 0; pass < 2 && ret >= 0; pass++) {
+		for (uint32_t id = 0; id < last; id++)
+			relief_patch_cache_request(c, id, (float)id);
+		ret = relief_patch_cache_flush(c, 1);
+	}
+	struct relief_patch_cache_stats s;
+	relief_patch_cache_stats(c, &s);
+	printf("reliefd: terrain %s: %u levels of %u-sample patches; cache %u layers (%llu bytes, %llu per patch, "
+	       "budget %u MiB), %llu decoded on the GPU, %llu bad\n", path, f->hdr.levels, f->hdr.patch_size, s.layers,
+	       (unsigned long long)s.bytes, (unsigned long long)s.bytes_per_layer, cfg->budget_mib,
+	       (unsigned long long)s.decoded, (unsigned long long)s.bad);
+	relief_patch_cache_destroy(c);
+	relief_file_close(f);
+	return ret < 0 ? 1 : 0;
+}
 
 static void usage(FILE *f)
 {
 	fprintf(f,
-		"usage: reliefd [--config FILE] [--device DEV] [--check] [--version] [--help]\n"
+		"usage: reliefd [--config FILE] [--device DEV] [--check [--terrain FILE.relief]] [--version]\n"
 		"  -c, --config FILE  INI configuration (see config/reliefd.conf)\n"
 		"      --device DEV   Vulkan device: name substring, deviceUUID or render node\n"
 		"                     (overrides the config; RELIEF_DEVICE overrides both)\n"
-		"      --check        bring up the Vulkan device, report it and exit\n"
+		"      --check        bring up the Vulkan device, report it and exit; with --terrain,\n"
+		"                     also build the GPU patch cache from [gpu] budget_mib and decode\n"
+		"                     the terrain's two coarsest levels on the GPU\n"
 		"  -v, --verbose      log more (repeat for debug)\n"
 		"      --version      print the version\n");
 }
@@ -29,6 +69,7 @@ int main(int argc, char **argv)
 		{ "config", required_argument, NULL, 'c' },
 		{ "device", required_argument, NULL, 'd' },
 		{ "check", no_argument, NULL, 'C' },
+		{ "terrain", required_argument, NULL, 't' },
 		{ "verbose", no_argument, NULL, 'v' },
 		{ "version", no_argument, NULL, 'V' },
 		{ "help", no_argument, NULL, 'h' },
@@ -36,7 +77,7 @@ int main(int argc, char **argv)
 	};
 	struct reliefd_config cfg;
 	reliefd_config_defaults(&cfg);
-	const char *config_path = NULL, *device = NULL;
+	const char *config_path = NULL, *device = NULL, *terrain = NULL;
 	bool check = false;
 	enum relief_log_level level = RELIEF_LOG_WARN;
 	int c;
@@ -46,6 +87,7 @@ int main(int argc, char **argv)
 		case 'c': config_path = optarg; break;
 		case 'd': device = optarg; break;
 		case 'C': check = true; break;
+		case 't': terrain = optarg; break;
 		case 'v': if (level < RELIEF_LOG_DEBUG) level++; break;
 		case 'V': printf("reliefd %s\n", RELIEF_VERSION); return 0;
 		case 'h': usage(stdout); return 0;
@@ -88,6 +130,9 @@ int main(int argc, char **argv)
 	       "pipeline statistics %s, external memory fd %s\n",
 	       vk->props.deviceName, cfg.budget_mib, vk->has.draw_indirect_count ? "yes" : "no",
 	       vk->has.pipeline_statistics ? "yes" : "no", vk->has.external_memory_fd ? "yes" : "no");
+	int status = 0;
+	if (terrain)
+		status = check_terrain(vk, &cfg, terrain, &log);
 	relief_vk_destroy(vk);
-	return 0;
+	return status;
 }

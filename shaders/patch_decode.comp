@@ -1,13 +1,17 @@
 #version 450
 // GPU reconstruction of one patch: the integer arithmetic of relief_patch_reconstruct()
-// (common/codec.c), one invocation per sample of the (P+2)^2 block with its ring, so the
-// result is bit-exact with the CPU reference decoder.
+// (common/codec.c), so the result is bit-exact with the CPU reference decoder.
 //
 // Inputs: the parent's quantised block (layer parent_layer of `heights`) and the patch's
 // symbols in a staging slot: labels (L*L ints), then residuals in plane order (H, V, C), or
 // for mode 1 (the root, reconstructed on the CPU) the (P+2)^2 values themselves.
 // Corrupt input (values outside the codec's bounds) sets flags[flag]; the CPU then marks
 // the patch bad and never draws it.
+//
+// Work split: one invocation per 2 x 2 quad with its refined sample at even local (ex, ey),
+// ex, ey in [-2, P-1]: it writes the refined sample (ex, ey), the edge samples (ex+1, ey)
+// and (ex, ey+1) and the centre (ex+1, ey+1), those inside [-1, P]. Every lane then runs
+// the same code (no divergence between sample kinds) and needs four refined values.
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(binding = 0, r32i) uniform iimage2DArray heights;
@@ -29,61 +33,66 @@ const int Q_MAX = 1 << 26;
 
 void set_flag() { atomicOr(fl.flags[pc.flag], 1u); }
 
-int parent_q(ivec2 storage)
-{
-	int v = imageLoad(heights, ivec3(storage, pc.parent_layer)).x;
-	if (v < -Q_MAX || v > Q_MAX)
-		set_flag();
-	return v;
-}
-
 // Refined value at even local (ex, ey) in [-2, P+1]: k * parent, plus the label inside.
 int refined(int ex, int ey)
 {
 	int half_p = (pc.P - 1) >> 1, L = (pc.P + 1) >> 1;
 	ivec2 o = ivec2((pc.quadrant & 1) != 0 ? half_p : 0, (pc.quadrant & 2) != 0 ? half_p : 0);
-	int v = pc.ratio * parent_q(o + ivec2(ex >> 1, ey >> 1) + 1);
+	int p = imageLoad(heights, ivec3(o + ivec2(ex >> 1, ey >> 1) + 1, pc.parent_layer)).x;
+	if (p < -Q_MAX || p > Q_MAX)
+		set_flag();
+	int v = pc.ratio * p;
 	if (ex >= 0 && ey >= 0 && ex < pc.P && ey < pc.P)
 		v += st.data[pc.slot + uint((ey >> 1) * L + (ex >> 1))];
 	return v;
 }
 
+void put(int x, int y, int q)
+{
+	if (x < -1 || y < -1 || x > pc.P || y > pc.P)
+		return;
+	if (q < -Q_MAX || q > Q_MAX)
+		set_flag();
+	imageStore(heights, ivec3(x + 1, y + 1, pc.child_layer), ivec4(q));
+}
+
+int residual(uint index)
+{
+	int d = st.data[index];
+	if (d <= -(1 << 29) || d >= (1 << 29))
+		set_flag();
+	return d;
+}
+
 void main()
 {
-	int E = pc.P + 2;
-	ivec2 s = ivec2(gl_GlobalInvocationID.xy);
-	if (s.x >= E || s.y >= E)
+	int E = pc.P + 2, quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
+	ivec2 g = ivec2(gl_GlobalInvocationID.xy);
+	if (g.x >= quads || g.y >= quads)
 		return;
 	int L = (pc.P + 1) >> 1, odd = (pc.P + 3) >> 1, even = L;
 	uint values = pc.slot + uint(L * L);
-	int q;
+	int ex = 2 * g.x - 2, ey = 2 * g.y - 2;
 	if (pc.mode == 1) {
-		q = st.data[values + uint(s.y * E + s.x)];
-	} else {
-		int x = s.x - 1, y = s.y - 1; // local coordinates, -1..P
-		bool xe = (x & 1) == 0, ye = (y & 1) == 0;
-		if (xe && ye) {
-			q = refined(x, y); // even positions are always inside [0, P-1]
-		} else {
-			int pred, index;
-			if (ye) {        // H plane: y even, x odd
-				pred = (refined(x - 1, y) + refined(x + 1, y) + 1) >> 1;
-				index = (y >> 1) * odd + ((x + 1) >> 1);
-			} else if (xe) { // V plane: y odd, x even
-				pred = (refined(x, y - 1) + refined(x, y + 1) + 1) >> 1;
-				index = even * odd + ((y + 1) >> 1) * even + (x >> 1);
-			} else {         // C plane: both odd
-				pred = (refined(x - 1, y - 1) + refined(x + 1, y - 1) + refined(x - 1, y + 1) +
-				        refined(x + 1, y + 1) + 2) >> 2;
-				index = 2 * even * odd + ((y + 1) >> 1) * odd + ((x + 1) >> 1);
+		for (int dy = 0; dy < 2; dy++)
+			for (int dx = 0; dx < 2; dx++) {
+				int x = ex + dx, y = ey + dy;
+				if (x >= -1 && y >= -1 && x <= pc.P && y <= pc.P)
+					put(x, y, st.data[values + uint((y + 1) * E + x + 1)]);
 			}
-			int d = st.data[values + uint(index)];
-			if (d <= -(1 << 29) || d >= (1 << 29))
-				set_flag();
-			q = pred + d;
-		}
+		return;
 	}
-	if (q < -Q_MAX || q > Q_MAX)
-		set_flag();
-	imageStore(heights, ivec3(s, pc.child_layer), ivec4(q));
+	int r00 = refined(ex, ey), r10 = refined(ex + 2, ey);
+	int r01 = refined(ex, ey + 2), r11 = refined(ex + 2, ey + 2);
+	int x = ex + 1, y = ey + 1; // odd coordinates of this quad
+	put(ex, ey, r00);           // refined: inside only when ex, ey >= 0
+	// H plane sample (x, ey): index (ey / 2) * odd + (x + 1) / 2
+	if (ey >= 0)
+		put(x, ey, ((r00 + r10 + 1) >> 1) + residual(values + uint((ey >> 1) * odd + ((x + 1) >> 1))));
+	// V plane sample (ex, y)
+	if (ex >= 0)
+		put(ex, y, ((r00 + r01 + 1) >> 1) + residual(values + uint(even * odd + ((y + 1) >> 1) * even + (ex >> 1))));
+	// C plane sample (x, y)
+	put(x, y, ((r00 + r10 + r01 + r11 + 2) >> 2) +
+	          residual(values + uint(2 * even * odd + ((y + 1) >> 1) * odd + ((x + 1) >> 1))));
 }

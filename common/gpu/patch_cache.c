@@ -696,7 +696,8 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 	}
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
-	const uint32_t groups_e = (c->E + 7) / 8, groups_p = (c->P + 7) / 8;
+	/* 8 x 8 workgroups: decode over (P + 3) / 2 quads per side, normals over P samples */
+	const uint32_t groups_e = ((c->P + 3) / 2 + 7) / 8, groups_p = (c->P + 7) / 8;
 	for (uint32_t i = 0; i < b->n; i++) {
 		uint32_t id = b->jobs[i].id, l, px, py;
 		relief_patch_coords(lay, id, &l, &px, &py);

@@ -97,5 +97,14 @@ n=$(grep -c '"method":' <<<"$LAST_OUT")
 [ "$n" -eq 3 ] || { echo "FAIL bench codec records: $n"; fails=$((fails + 1)); }
 expect_text bench-codec-fields '"file":"luxembourg_elev.tif","method":"relief","tolerance_m":1,"bytes":'
 check bench-unknown-mode 2 "$relief" bench frobnicate
+# the daemon builds its GPU cache from the configured budget
+printf '[gpu]\nbudget_mib = 16\n' > "$tmp/reliefd.conf"
+check reliefd-terrain 0 "$reliefd" --config "$tmp/reliefd.conf" --check --terrain "$tmp/ps.relief"
+expect_text reliefd-terrain-budget "budget 16 MiB), 5 decoded on the GPU, 0 bad"
+check reliefd-terrain-missing 1 "$reliefd" --check --terrain "$tmp/none.relief"
+expect_text reliefd-terrain-missing-named "none.relief"
+check bench-decode 0 "$relief" bench decode "$tmp/lux.relief" --runs 1 --json
+expect_text bench-decode-fields '"file":"lux.relief","patches":'
+expect_text bench-decode-ratio '"ratio_gpu_over_cpu":'
 echo "cli: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -1,0 +1,170 @@
+/* relief bench decode FILE.relief: GPU decoding through the patch cache against the CPU
+ * reference decoder, on the same patches, in one run.
+ *
+ * Samples are decoded patch samples (P^2 per non-empty patch, every level). Timings are
+ * medians over --runs runs:
+ *   cpu_ref   one thread: fetch, entropy-decode and reconstruct every patch (tree walk);
+ *   entropy   one thread: fetch and entropy-decode only (the CPU share of the GPU path);
+ *   gpu       wall time from the first request to the last patch resident in the cache:
+ *             the worker thread entropy-decodes while the GPU reconstructs, in batches;
+ *             gpu_busy_ms is the GPU's own time from timestamps. */
+#include <errno.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench.h"
+#include "bench_util.h"
+#include "cli.h"
+#include "decode.h"
+#include "format.h"
+#include "parallel.h"
+#include "patch_cache.h"
+#include "vk.h"
+
+static int gpu_run(struct relief_vk *vk, struct relief_file *f, double *wall, struct relief_patch_cache_stats *st)
+{
+	struct relief_patch_cache_options o = { .budget_bytes = 1ull << 30 };
+	struct relief_patch_cache *c;
+	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
+	if (ret < 0)
+		return ret;
+	double t = bench_now();
+	for (uint32_t l = 0; l < f->hdr.levels && ret >= 0; l++) {
+		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++) {
+			int r = relief_patch_cache_request(c, id, 0.0f);
+			if (r < 0 && r != -ENOENT && r != -EIO)
+				ret = r;
+		}
+		if (ret >= 0)
+			ret = relief_patch_cache_flush(c, 1);
+	}
+	*wall = bench_now() - t;
+	relief_patch_cache_stats(c, st);
+	relief_patch_cache_destroy(c);
+	return ret < 0 ? ret : 0;
+}
+
+int bench_decode(int argc, char **argv)
+{
+	static const struct option opts[] = {
+		{ "json", no_argument, NULL, 'J' },
+		{ "runs", required_argument, NULL, 'n' },
+		{ "device", required_argument, NULL, 'd' },
+		{ "help", no_argument, NULL, 'h' },
+		{ 0 },
+	};
+	bool json = false;
+	uint32_t runs = 3;
+	const char *device = NULL;
+	int ch;
+	opterr = 0;
+	while ((ch = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
+		switch (ch) {
+		case 'J': json = true; break;
+		case 'n':
+			if (!cli_parse_u32("bench decode", "--runs", optarg, 1, 15, &runs))
+				return EXIT_USAGE;
+			break;
+		case 'd': device = optarg; break;
+		case 'h':
+			printf("usage: relief bench decode FILE.relief [--json] [--runs N] [--device DEV]\n"
+			       "GPU decoding through the patch cache against the CPU reference decoder on the same\n"
+			       "patches: MSamples/s (decoded patch samples), the CPU entropy stage alone, GPU time\n"
+			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3).\n");
+			return 0;
+		case ':':
+			fprintf(stderr, "relief bench decode: %s needs a value\n", argv[optind - 1]);
+			return EXIT_USAGE;
+		default:
+			fprintf(stderr, "relief bench decode: unknown option '%s'\n", argv[optind - 1]);
+			return EXIT_USAGE;
+		}
+	}
+	if (argc - optind != 1) {
+		fprintf(stderr, "relief bench decode: expected one FILE.relief\n");
+		return EXIT_USAGE;
+	}
+	const char *path = argv[optind];
+	char err[512];
+	struct relief_file *f;
+	if (relief_file_open(path, &f, err, sizeof(err)) < 0) {
+		fprintf(stderr, "relief bench decode: %s: %s\n", path, err);
+		return 1;
+	}
+	const uint32_t P = f->hdr.patch_size;
+	uint32_t patches = 0;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
+		struct relief_patch_record r;
+		relief_file_record(f, id, &r);
+		patches += !(r.flags & RELIEF_PATCH_EMPTY);
+	}
+	const double samples = (double)patches * P * P;
+	double cpu[16], ent[16], gpu[16], gpu_busy[16], worker[16];
+	struct relief_patch_cache_stats st = { 0 };
+	struct relief_vk_options vo = { .device = device, .log = &cli_log };
+	struct relief_vk *vk = NULL;
+	int status = 1, ret;
+	if ((ret = relief_vk_create(&vo, &vk)) < 0) {
+		fprintf(stderr, "relief bench decode: no Vulkan device: %s\n", strerror(-ret));
+		goto out;
+	}
+	for (uint32_t i = 0; i < runs; i++) {
+		int32_t *blocks;
+		double t = bench_now();
+		if ((ret = relief_decode_level_blocks(f, f->hdr.levels - 1, 1, &blocks)) < 0)
+			goto fail;
+		cpu[i] = bench_now() - t;
+		free(blocks);
+		struct relief_decoder dec;
+		if ((ret = relief_decoder_init(&dec, f)) < 0)
+			goto fail;
+		t = bench_now();
+		for (uint32_t id = 0; id < f->hdr.patch_count && ret == 0; id++) {
+			struct relief_patch_record r;
+			relief_file_record(f, id, &r);
+			if (!(r.flags & RELIEF_PATCH_EMPTY))
+				ret = relief_decoder_symbols(&dec, id);
+		}
+		ent[i] = bench_now() - t;
+		relief_decoder_finish(&dec);
+		if (ret < 0 || (ret = gpu_run(vk, f, &gpu[i], &st)) < 0)
+			goto fail;
+		gpu_busy[i] = st.gpu_ns * 1e-9;
+		worker[i] = st.entropy_ns * 1e-9;
+	}
+	double c = bench_median(cpu, runs), e = bench_median(ent, runs), g = bench_median(gpu, runs);
+	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
+	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
+	if (json) {
+		printf("{\"file\":\"%s\",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
+		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
+		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
+		       "\"runs\":%u,\"device\":\"%s\"}\n",
+		       base, patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
+		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, w * 1e3,
+		       (unsigned long long)st.batches, runs, vk->props.deviceName);
+	} else {
+		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
+		       "medians\n", base, patches, P, vk->props.deviceName, relief_vk_device_type_name(vk->props.deviceType),
+		       bench_cpu_name(), runs);
+		printf("  CPU reference (1 thread)     %8.2f ms  %7.2f MSamples/s\n", c * 1e3, samples / c / 1e6);
+		printf("  CPU entropy stage only       %8.2f ms  %7.2f MSamples/s  (%.0f%% of the reference)\n", e * 1e3,
+		       samples / e / 1e6, 100 * e / c);
+		printf("  GPU path (worker + GPU)      %8.2f ms  %7.2f MSamples/s  %.0f patches/s  ratio GPU/CPU %.2f\n",
+		       g * 1e3, samples / g / 1e6, patches / g, c / g);
+		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches; worker entropy %.2f ms\n", gb * 1e3,
+		       (unsigned long long)st.batches, w * 1e3);
+		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors)\n",
+		       (unsigned long long)st.bytes_per_layer);
+	}
+	status = 0;
+	goto out;
+fail:
+	fprintf(stderr, "relief bench decode: %s: %s\n", path, strerror(-ret));
+out:
+	relief_vk_destroy(vk);
+	relief_file_close(f);
+	return status;
+}
