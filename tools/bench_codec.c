@@ -247,11 +247,8 @@ int bench_codec(int argc, char **argv)
 			       "file; INPUT.relief-import sidecars fill in the rest.\n%s", IMPORT_OPTIONS_HELP);
 			return 0;
 		case ':':
-			fprintf(stderr, "relief bench codec: %s needs a value\n", argv[optind - 1]);
-			return EXIT_USAGE;
 		case '?':
-			fprintf(stderr, "relief bench codec: unknown option '%s'\n", argv[optind - 1]);
-			return EXIT_USAGE;
+			return cli_option_error("bench codec", ch, argv);
 		default:
 			if (!import_option("bench codec", ch, optarg, &cli))
 				return EXIT_USAGE;

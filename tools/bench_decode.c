@@ -75,11 +75,8 @@ int bench_decode(int argc, char **argv)
 			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3).\n");
 			return 0;
 		case ':':
-			fprintf(stderr, "relief bench decode: %s needs a value\n", argv[optind - 1]);
-			return EXIT_USAGE;
 		default:
-			fprintf(stderr, "relief bench decode: unknown option '%s'\n", argv[optind - 1]);
-			return EXIT_USAGE;
+			return cli_option_error("bench decode", ch, argv);
 		}
 	}
 	if (argc - optind != 1) {

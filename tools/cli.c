@@ -1,4 +1,5 @@
 #include <errno.h>
+#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -91,4 +92,13 @@ int cli_make_parent_dir(const char *path)
 	if (mkdir(dir, 0777) < 0 && errno != EEXIST)
 		return -errno;
 	return 0;
+}
+
+int cli_option_error(const char *cmd, int c, char **argv)
+{
+	if (c == ':')
+		fprintf(stderr, "relief %s: %s needs a value\n", cmd, argv[optind - 1]);
+	else
+		fprintf(stderr, "relief %s: unknown option '%s' (see 'relief %s --help')\n", cmd, argv[optind - 1], cmd);
+	return EXIT_USAGE;
 }

@@ -25,6 +25,9 @@ bool cli_parse_double(const char *cmd, const char *opt, const char *s, double *o
 bool cli_parse_u32(const char *cmd, const char *opt, const char *s, uint32_t min, uint32_t max, uint32_t *out);
 bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h);
 bool cli_parse_vec3(const char *cmd, const char *opt, const char *s, double out[3]);
+/* The usage error for getopt_long's ':' (missing value) or '?' (unknown option) return,
+ * run with opterr = 0 and an optstring starting with ':'. Prints it and returns EXIT_USAGE. */
+int cli_option_error(const char *cmd, int c, char **argv);
 /* Creates the parent directory of `path` if needed (one level, like out/). */
 int cli_make_parent_dir(const char *path);
 

@@ -47,11 +47,8 @@ int cmd_hello(int argc, char **argv)
 		case 'V': validation = true; break;
 		case 'h': hello_usage(stdout); return 0;
 		case ':':
-			fprintf(stderr, "relief hello: %s needs a value\n", argv[optind - 1]);
-			return EXIT_USAGE;
 		default:
-			fprintf(stderr, "relief hello: unknown option '%s' (see 'relief hello --help')\n", argv[optind - 1]);
-			return EXIT_USAGE;
+			return cli_option_error("hello", c, argv);
 		}
 	}
 	if (optind != argc) {

@@ -40,8 +40,7 @@ int cmd_info(int argc, char **argv)
 			       "Prints the header, extent, levels with their tolerances, patch counts and sizes.\n");
 			return 0;
 		default:
-			fprintf(stderr, "relief info: unknown option '%s' (see 'relief info --help')\n", argv[optind - 1]);
-			return EXIT_USAGE;
+			return cli_option_error("info", c, argv);
 		}
 	}
 	if (argc - optind != 1) {

@@ -103,11 +103,8 @@ int cmd_pack(int argc, char **argv)
 		case 'q': quiet = true; break;
 		case 'h': pack_usage(stdout); return 0;
 		case ':':
-			fprintf(stderr, "relief pack: %s needs a value\n", argv[optind - 1]);
-			return EXIT_USAGE;
 		case '?':
-			fprintf(stderr, "relief pack: unknown option '%s' (see 'relief pack --help')\n", argv[optind - 1]);
-			return EXIT_USAGE;
+			return cli_option_error("pack", c, argv);
 		default:
 			if (!import_option("pack", c, optarg, &io))
 				return EXIT_USAGE;

@@ -84,11 +84,8 @@ int cmd_unpack(int argc, char **argv)
 			       "sample (1 = valid).\n");
 			return 0;
 		case ':':
-			fprintf(stderr, "relief unpack: %s needs a value\n", argv[optind - 1]);
-			return EXIT_USAGE;
 		default:
-			fprintf(stderr, "relief unpack: unknown option '%s' (see 'relief unpack --help')\n", argv[optind - 1]);
-			return EXIT_USAGE;
+			return cli_option_error("unpack", c, argv);
 		}
 	}
 	if (argc - optind != 2) {

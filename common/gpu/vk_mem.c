@@ -81,16 +81,10 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
 	memset(b, 0, sizeof(*b));
 }
 
-int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFormat format,
-                         uint32_t width, uint32_t height, uint32_t layers, VkImageViewType view_type,
-                         VkImageUsageFlags usage, VkImageAspectFlags aspect)
+static VkImageCreateInfo image_info(VkFormat format, uint32_t width, uint32_t height, uint32_t layers,
+                                    VkImageUsageFlags usage)
 {
-	memset(img, 0, sizeof(*img));
-	img->format = format;
-	img->width = width;
-	img->height = height;
-	img->layers = layers;
-	VkImageCreateInfo info = {
+	return (VkImageCreateInfo){
 		.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
 		.imageType = VK_IMAGE_TYPE_2D,
 		.format = format,
@@ -103,6 +97,18 @@ int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFo
 		.sharingMode = VK_SHARING_MODE_EXCLUSIVE,
 		.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
 	};
+}
+
+int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFormat format,
+                         uint32_t width, uint32_t height, uint32_t layers, VkImageViewType view_type,
+                         VkImageUsageFlags usage, VkImageAspectFlags aspect)
+{
+	memset(img, 0, sizeof(*img));
+	img->format = format;
+	img->width = width;
+	img->height = height;
+	img->layers = layers;
+	VkImageCreateInfo info = image_info(format, width, height, layers, usage);
 	int ret = relief_vk_check(vk, vkCreateImage(vk->device, &info, NULL, &img->image), "vkCreateImage");
 	if (ret < 0)
 		goto fail;
@@ -132,18 +138,7 @@ fail:
 VkDeviceSize relief_vk_image_bytes(struct relief_vk *vk, VkFormat format, uint32_t width, uint32_t height,
                                    uint32_t layers, VkImageUsageFlags usage)
 {
-	VkImageCreateInfo info = {
-		.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
-		.imageType = VK_IMAGE_TYPE_2D,
-		.format = format,
-		.extent = { width, height, 1 },
-		.mipLevels = 1,
-		.arrayLayers = layers,
-		.samples = VK_SAMPLE_COUNT_1_BIT,
-		.tiling = VK_IMAGE_TILING_OPTIMAL,
-		.usage = usage,
-		.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
-	};
+	VkImageCreateInfo info = image_info(format, width, height, layers, usage);
 	VkImage image;
 	if (vkCreateImage(vk->device, &info, NULL, &image) != VK_SUCCESS)
 		return 0;

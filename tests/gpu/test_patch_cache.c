@@ -38,6 +38,26 @@ static void pack_dem(enum test_dem d, uint32_t patch, double tol, uint8_t **img,
 	relief_dem_finish(&dem);
 }
 
+/* A packed DEM opened from memory. */
+struct terrain {
+	uint8_t *img;
+	size_t size;
+	struct relief_file *f;
+};
+
+static void terrain_open(struct terrain *t, enum test_dem d, uint32_t patch, double tol)
+{
+	char err[256];
+	pack_dem(d, patch, tol, &t->img, &t->size);
+	assert_int_equal(relief_file_open_memory(t->img, t->size, &t->f, err, sizeof(err)), 0);
+}
+
+static void terrain_close(struct terrain *t)
+{
+	relief_file_close(t->f);
+	free(t->img);
+}
+
 /* Requests every patch, level by level, until nothing more can become resident. */
 static void load_all(struct relief_patch_cache *c, const struct relief_file *f, uint64_t frame)
 {
@@ -66,12 +86,9 @@ static void cpu_normal(const struct relief_file *f, uint32_t l, const int32_t *b
 
 static void check_bit_exact(enum test_dem d, uint32_t patch, double tol)
 {
-	uint8_t *img;
-	size_t size;
-	pack_dem(d, patch, tol, &img, &size);
-	struct relief_file *f;
-	char err[256];
-	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	struct terrain t;
+	terrain_open(&t, d, patch, tol);
+	struct relief_file *f = t.f;
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20 };
 	struct relief_patch_cache *c;
 	assert_int_equal(relief_patch_cache_create(vk, f, &o, &gpu_test_log, &c), 0);
@@ -128,8 +145,7 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol)
 	assert_int_equal(s.decoded, checked);
 	assert_true(s.bytes <= o.budget_bytes);
 	relief_patch_cache_destroy(c);
-	relief_file_close(f);
-	free(img);
+	terrain_close(&t);
 	free(gpu_h);
 	free(gpu_n);
 	free(gpu_e);
@@ -155,12 +171,9 @@ static void assert_tree_consistent(struct relief_patch_cache *c, const struct re
 
 static void test_budget_and_eviction(void **state)
 {
-	uint8_t *img;
-	size_t size;
-	pack_dem(DEM_PUGET, 129, 2.0, &img, &size);
-	struct relief_file *f;
-	char err[256];
-	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 2.0);
+	struct relief_file *f = t.f;
 	/* A budget below one patch is refused. */
 	struct relief_patch_cache_options tiny = { .budget_bytes = 4096 };
 	struct relief_patch_cache *c;
@@ -242,8 +255,7 @@ static void test_budget_and_eviction(void **state)
 	assert_int_equal(relief_patch_cache_state(c, 2), RELIEF_PATCH_RESIDENT);
 	assert_tree_consistent(c, f);
 	relief_patch_cache_destroy(c);
-	relief_file_close(f);
-	free(img);
+	terrain_close(&t);
 	gpu_test_assert_clean(vk);
 }
 
@@ -252,12 +264,9 @@ static void test_budget_and_eviction(void **state)
  * rest must follow their priorities. Repeated requests decode nothing twice. */
 static void test_priority_and_dedup(void **state)
 {
-	uint8_t *img;
-	size_t size;
-	pack_dem(DEM_PUGET, 129, 1.0, &img, &size);
-	struct relief_file *f;
-	char err[256];
-	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 1.0);
+	struct relief_file *f = t.f;
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .staging_slots = 1, .batch = 1 };
 	struct relief_patch_cache *c;
 	assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
@@ -285,8 +294,7 @@ static void test_priority_and_dedup(void **state)
 	relief_patch_cache_stats(c, &s);
 	assert_int_equal(s.decoded, 5); /* 12 requests, 4 patches (and the root) */
 	relief_patch_cache_destroy(c);
-	relief_file_close(f);
-	free(img);
+	terrain_close(&t);
 	gpu_test_assert_clean(vk);
 }
 
@@ -299,16 +307,13 @@ static void count_log(void *data, enum relief_log_level level, const char *fmt, 
 
 static void test_corrupt_patch(void **state)
 {
-	uint8_t *img;
-	size_t size;
-	pack_dem(DEM_PUGET, 129, 1.0, &img, &size);
-	struct relief_file *f;
-	char err[256];
-	assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 1.0);
+	struct relief_file *f = t.f;
 	uint32_t victim = relief_patch_id(2, 1, 2);
 	struct relief_patch_record r;
 	relief_file_record(f, victim, &r);
-	img[f->hdr.data_offset + r.offset + r.size / 2] ^= 0x40; /* the stream's CRC no longer matches */
+	t.img[f->hdr.data_offset + r.offset + r.size / 2] ^= 0x40; /* the stream's CRC no longer matches */
 	struct relief_logger counter = { count_log, NULL };
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20 };
 	struct relief_patch_cache *c;
@@ -328,8 +333,7 @@ static void test_corrupt_patch(void **state)
 	/* the victim's four children cannot be decoded without it */
 	assert_int_equal(resident, f->hdr.patch_count - 1 - 4);
 	relief_patch_cache_destroy(c);
-	relief_file_close(f);
-	free(img);
+	terrain_close(&t);
 	gpu_test_assert_clean(vk);
 }
 
