@@ -10,6 +10,7 @@ static const struct relief_command commands[] = {
 	{ "pack", "compress an elevation model into a .relief file", cmd_pack },
 	{ "unpack", "write the reconstructed heights of one level", cmd_unpack },
 	{ "info", "describe a .relief file", cmd_info },
+	{ "snap", "render one frame of a .relief file headless", cmd_snap },
 	{ "bench", "measure the codec (and later decoding and LOD) with JSON output", cmd_bench },
 	{ "hello", "render a displaced, tessellated test grid headless to a PNG", cmd_hello },
 };

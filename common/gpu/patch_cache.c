@@ -63,7 +63,7 @@ struct relief_patch_cache {
 
 	/* GPU objects */
 	struct relief_vk_image heights, normals;
-	struct relief_vk_buffer errors, staging, flags;
+	struct relief_vk_buffer errors, staging, flags, layer_table, use_table;
 	VkDescriptorSetLayout set_layout;
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;
@@ -429,10 +429,17 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	    (ret = relief_vk_buffer_init(vk, &c->staging, (VkDeviceSize)c->o.staging_slots * c->slot_ints * 4,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->flags, sizeof(uint32_t) * c->o.staging_slots,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0)
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &c->layer_table, sizeof(int32_t) * c->count,
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &c->use_table, sizeof(uint32_t) * c->count,
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0)
 		goto fail;
+	memset(c->layer_table.map, 0xff, sizeof(int32_t) * c->count); /* -1: nothing resident */
+	memset(c->use_table.map, 0, sizeof(uint32_t) * c->count);
 	c->pool_bytes = pool_bytes_for(c, n);
-	c->pool = (struct relief_patch_pool){ c->heights.view, c->normals.view, c->errors.buffer, n };
+	c->pool = (struct relief_patch_pool){ c->heights.view, c->normals.view, c->errors.buffer, n,
+	                                      c->layer_table.buffer, c->use_table.buffer };
 	c->owner = malloc(sizeof(int32_t) * n);
 	c->free_layers = malloc(sizeof(uint32_t) * n);
 	c->free_slots = malloc(sizeof(uint32_t) * c->o.staging_slots);
@@ -503,6 +510,8 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 	relief_vk_buffer_finish(vk, &c->errors);
 	relief_vk_buffer_finish(vk, &c->staging);
 	relief_vk_buffer_finish(vk, &c->flags);
+	relief_vk_buffer_finish(vk, &c->layer_table);
+	relief_vk_buffer_finish(vk, &c->use_table);
 	free(c->state);
 	free(c->layer);
 	free(c->last_used);
@@ -573,15 +582,20 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
 {
 	if (c->n_free_layers)
 		return (int32_t)c->free_layers[--c->n_free_layers];
-	/* Evict the least recently used patch that nothing depends on. */
+	/* Evict the least recently used patch that nothing depends on. Views on the GPU stamp
+	 * the use table with the frame they drew a patch in. */
+	const uint32_t *gpu_use = c->use_table.map;
 	int32_t best = -1;
 	uint64_t oldest = UINT64_MAX;
 	for (uint32_t i = 0; i < c->pool.layers; i++) {
 		int32_t id = c->owner[i];
-		if (id <= 0 || c->children[id] || c->pins[id] || c->last_used[id] + c->o.keep_frames >= frame)
+		if (id <= 0)
 			continue;
-		if (c->last_used[id] < oldest) {
-			oldest = c->last_used[id];
+		uint64_t used = c->last_used[id] > gpu_use[id] ? c->last_used[id] : gpu_use[id];
+		if (c->children[id] || c->pins[id] || used + c->o.keep_frames >= frame)
+			continue;
+		if (used < oldest) {
+			oldest = used;
 			best = (int32_t)i;
 		}
 	}
@@ -590,6 +604,7 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
 	uint32_t id = (uint32_t)c->owner[best];
 	c->state[id] = RELIEF_PATCH_ABSENT;
 	c->layer[id] = -1;
+	((int32_t *)c->layer_table.map)[id] = -1;
 	c->children[parent_of(c, id)]--;
 	c->owner[best] = -1;
 	c->stats.evicted++;
@@ -631,6 +646,7 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 		} else {
 			c->state[id] = RELIEF_PATCH_RESIDENT;
 			c->layer[id] = (int32_t)layer;
+			((int32_t *)c->layer_table.map)[id] = (int32_t)layer;
 			if (c->last_used[id] < frame)
 				c->last_used[id] = frame;
 			if (id != 0) {

@@ -66,6 +66,12 @@ struct relief_patch_pool {
 	VkImageView normals;      /* 2D array, R8G8B8A8_SNORM, P^2 */
 	VkBuffer block_errors;    /* float[layers][blocks^2][4], metres */
 	uint32_t layers;
+	/* int32[patch_count]: the layer of each resident patch, -1 otherwise; host-visible,
+	 * kept current by the cache, read by the LOD selection on the GPU. */
+	VkBuffer layer_table;
+	/* uint32[patch_count]: the last frame a view drew each patch, written by the LOD
+	 * selection on the GPU; eviction treats it like relief_patch_cache_touch(). */
+	VkBuffer use_table;
 };
 
 int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,

@@ -1,0 +1,492 @@
+/* The terrain renderer (see terrain.h). One descriptor set layout serves the three
+ * pipelines (selection, draw records, drawing); each view has two sets that swap its
+ * hysteresis buffers every frame. */
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pipeline.h"
+#include "terrain.h"
+
+#include "lod_commands.comp.spv.h"
+#include "lod_select.comp.spv.h"
+#include "terrain.frag.spv.h"
+#include "terrain.tesc.spv.h"
+#include "terrain.tese.spv.h"
+#include "terrain.vert.spv.h"
+
+#define WANT_CAP 1024
+/* Tessellated vertices of one quad patch at most: factor 16 everywhere, (16 + 1)^2. */
+#define MAX_VERTICES_PER_QUAD 289u
+
+/* std430 twins of the shaders' push blocks and structs (shaders/terrain_*.glsl). */
+struct select_push {
+	float vp[16];
+	int32_t cell[2];
+	float frac[2], spacing[2];
+	float cam_z, kappa, tau;
+	uint32_t frame, count, levels, P, want_cap;
+	float delta_finest;
+	uint32_t ratio;
+};
+_Static_assert(sizeof(struct select_push) == 128, "select push block");
+
+struct commands_push {
+	uint32_t per_patch, per_draw, max_draws;
+};
+
+struct draw_push {
+	float vp[16];
+	float viewport[2];
+	float tau, cam_z;
+	uint32_t P, blocks, per_patch, mode;
+	float sun[4];
+	float hrange[2];
+};
+_Static_assert(sizeof(struct draw_push) == 120, "draw push block");
+
+struct patch_info {
+	float hmin, hmax, err, skirt;
+};
+
+struct instance {
+	uint32_t id;
+	int32_t layer;
+	uint32_t level;
+	float q2, origin[2], step[2], err, skirt, pad[2];
+};
+_Static_assert(sizeof(struct instance) == 48, "instance");
+
+struct counters {
+	uint32_t drawn, draws, wants, pad;
+};
+
+struct relief_terrain {
+	struct relief_vk *vk;
+	const struct relief_file *file;
+	struct relief_patch_cache *cache;
+	struct relief_vk_buffer info;
+	VkDescriptorSetLayout set_layout;
+	VkPipelineLayout select_layout, commands_layout, draw_layout;
+	VkPipeline select, commands, draw_fill, draw_wire;
+	VkQueryPool stats_pool, timer;
+	uint32_t count, blocks, per_patch, per_draw, max_patches, max_draws;
+};
+
+struct relief_terrain_view {
+	struct relief_terrain *t;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants;
+	VkDescriptorPool pool;
+	VkDescriptorSet set[2];
+	uint32_t parity;
+	uint32_t last_drawn;
+};
+
+static int compute_pipeline(struct relief_vk *vk, VkPipelineLayout layout, const uint32_t *code, size_t size,
+                            VkPipeline *out)
+{
+	VkShaderModule m;
+	int ret = relief_vk_shader_module(vk, code, size, &m);
+	if (ret < 0)
+		return ret;
+	VkComputePipelineCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+		.stage = { .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+		           .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main" },
+		.layout = layout,
+	};
+	ret = relief_vk_check(vk, vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
+	                      "vkCreateComputePipelines");
+	vkDestroyShaderModule(vk->device, m, NULL);
+	return ret;
+}
+
+static int layout_with_push(struct relief_vk *vk, VkDescriptorSetLayout set, VkShaderStageFlags stages, uint32_t size,
+                            VkPipelineLayout *out)
+{
+	VkPushConstantRange range = { stages, 0, size };
+	VkPipelineLayoutCreateInfo li = {
+		.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+		.setLayoutCount = 1,
+		.pSetLayouts = &set,
+		.pushConstantRangeCount = 1,
+		.pPushConstantRanges = &range,
+	};
+	return relief_vk_check(vk, vkCreatePipelineLayout(vk->device, &li, NULL, out), "vkCreatePipelineLayout");
+}
+
+/* Skirt depth: how far below its border a patch's skirt reaches. Neighbours approximate the
+ * same original within their own bounds; this patch's full error at its coarsest block
+ * simplification (Err(P) + max eps_4), doubled, covers a neighbour of similar accuracy. */
+static float skirt_depth(const struct relief_file *f, uint32_t id, const struct relief_patch_record *r)
+{
+	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
+	float eps[16 * 16 * 4];
+	relief_file_block_errors(f, id, eps);
+	float worst = 0.0f;
+	for (size_t i = 3; i < n; i += 4)
+		worst = isfinite(eps[i]) && eps[i] > worst ? eps[i] : worst;
+	return 2.0f * (r->error + worst) + (float)f->layout.delta[f->hdr.levels - 1];
+}
+
+int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
+                          const struct relief_vk_target *target, struct relief_terrain **out)
+{
+	struct relief_terrain *t = calloc(1, sizeof(*t));
+	if (!t)
+		return -ENOMEM;
+	t->vk = vk;
+	t->file = f;
+	t->cache = cache;
+	t->count = f->hdr.patch_count;
+	t->blocks = f->layout.blocks;
+	t->per_patch = t->blocks * t->blocks + 4 * t->blocks;
+	t->per_draw = RELIEF_VK_MAX_TESS_VERTICES_PER_DRAW / MAX_VERTICES_PER_QUAD;
+	t->max_patches = relief_patch_cache_pool(cache)->layers;
+	if (t->max_patches > t->count)
+		t->max_patches = t->count;
+	t->max_draws = (t->max_patches * t->per_patch + t->per_draw - 1) / t->per_draw;
+
+	int ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
+	                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+	if (ret < 0)
+		goto fail;
+	struct patch_info *info = t->info.map;
+	for (uint32_t id = 0; id < t->count; id++) {
+		struct relief_patch_record r;
+		relief_file_record(f, id, &r);
+		bool empty = r.flags & RELIEF_PATCH_EMPTY;
+		info[id] = (struct patch_info){ r.height_min, r.height_max, r.error, empty ? -1.0f : skirt_depth(f, id, &r) };
+	}
+
+	VkDescriptorSetLayoutBinding b[12];
+	const VkDescriptorType types[12] = {
+		VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+		VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+		VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+		VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+	};
+	for (uint32_t i = 0; i < 12; i++)
+		b[i] = (VkDescriptorSetLayoutBinding){ i, types[i], 1, VK_SHADER_STAGE_ALL, NULL };
+	VkDescriptorSetLayoutCreateInfo li = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+		.bindingCount = 12,
+		.pBindings = b,
+	};
+	if ((ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &t->set_layout),
+	                           "vkCreateDescriptorSetLayout")) < 0 ||
+	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct select_push),
+	                            &t->select_layout)) < 0 ||
+	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct commands_push),
+	                            &t->commands_layout)) < 0 ||
+	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_ALL_GRAPHICS, sizeof(struct draw_push),
+	                            &t->draw_layout)) < 0 ||
+	    (ret = compute_pipeline(vk, t->select_layout, lod_select_comp_spv, sizeof(lod_select_comp_spv), &t->select)) < 0 ||
+	    (ret = compute_pipeline(vk, t->commands_layout, lod_commands_comp_spv, sizeof(lod_commands_comp_spv),
+	                            &t->commands)) < 0)
+		goto fail;
+	struct relief_vk_tess_pipeline_desc d = {
+		.vert = RELIEF_SPIRV(terrain_vert_spv),
+		.tesc = RELIEF_SPIRV(terrain_tesc_spv),
+		.tese = RELIEF_SPIRV(terrain_tese_spv),
+		.frag = RELIEF_SPIRV(terrain_frag_spv),
+		.control_points = 4,
+		.layout = t->draw_layout,
+		.pass = target->pass,
+	};
+	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_fill)) < 0)
+		goto fail;
+	if (vk->has.fill_mode_non_solid) {
+		d.wireframe = true;
+		if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_wire)) < 0)
+			goto fail;
+	}
+	if (vk->has.pipeline_statistics) {
+		VkQueryPoolCreateInfo qi = {
+			.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
+			.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS,
+			.queryCount = 1,
+			.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT,
+		};
+		if ((ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &qi, NULL, &t->stats_pool), "vkCreateQueryPool")) < 0)
+			goto fail;
+	}
+	if (vk->timestamp_valid_bits) {
+		VkQueryPoolCreateInfo qi = {
+			.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
+			.queryType = VK_QUERY_TYPE_TIMESTAMP,
+			.queryCount = 3,
+		};
+		if ((ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &qi, NULL, &t->timer), "vkCreateQueryPool")) < 0)
+			goto fail;
+	}
+	*out = t;
+	return 0;
+fail:
+	relief_terrain_destroy(t);
+	return ret;
+}
+
+void relief_terrain_destroy(struct relief_terrain *t)
+{
+	if (!t)
+		return;
+	VkDevice dev = t->vk->device;
+	VkPipeline pipes[4] = { t->select, t->commands, t->draw_fill, t->draw_wire };
+	for (int i = 0; i < 4; i++)
+		if (pipes[i])
+			vkDestroyPipeline(dev, pipes[i], NULL);
+	VkPipelineLayout layouts[3] = { t->select_layout, t->commands_layout, t->draw_layout };
+	for (int i = 0; i < 3; i++)
+		if (layouts[i])
+			vkDestroyPipelineLayout(dev, layouts[i], NULL);
+	if (t->set_layout)
+		vkDestroyDescriptorSetLayout(dev, t->set_layout, NULL);
+	if (t->stats_pool)
+		vkDestroyQueryPool(dev, t->stats_pool, NULL);
+	if (t->timer)
+		vkDestroyQueryPool(dev, t->timer, NULL);
+	relief_vk_buffer_finish(t->vk, &t->info);
+	free(t);
+}
+
+int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_view **out)
+{
+	struct relief_vk *vk = t->vk;
+	struct relief_terrain_view *v = calloc(1, sizeof(*v));
+	if (!v)
+		return -ENOMEM;
+	v->t = t;
+	const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+	int ret;
+	if ((ret = relief_vk_buffer_init(vk, &v->split[0], 4 * t->count, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->split[1], 4 * t->count, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->instances, sizeof(struct instance) * t->max_patches, storage, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->cmds, 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1),
+	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->counters, sizeof(struct counters),
+	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0)
+		goto fail;
+	VkDescriptorPoolSize sizes[2] = {
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 10 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
+	};
+	VkDescriptorPoolCreateInfo pi = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+		.maxSets = 2,
+		.poolSizeCount = 2,
+		.pPoolSizes = sizes,
+	};
+	if ((ret = relief_vk_check(vk, vkCreateDescriptorPool(vk->device, &pi, NULL, &v->pool), "vkCreateDescriptorPool")) < 0)
+		goto fail;
+	VkDescriptorSetLayout layouts[2] = { t->set_layout, t->set_layout };
+	VkDescriptorSetAllocateInfo ai = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+		.descriptorPool = v->pool,
+		.descriptorSetCount = 2,
+		.pSetLayouts = layouts,
+	};
+	if ((ret = relief_vk_check(vk, vkAllocateDescriptorSets(vk->device, &ai, v->set), "vkAllocateDescriptorSets")) < 0)
+		goto fail;
+	const struct relief_patch_pool *pool = relief_patch_cache_pool(t->cache);
+	for (int s = 0; s < 2; s++) {
+		VkBuffer bufs[12] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
+		                      v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
+		                      v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors };
+		VkDescriptorBufferInfo bi[12];
+		VkDescriptorImageInfo ii[2] = {
+			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
+			{ VK_NULL_HANDLE, pool->normals, VK_IMAGE_LAYOUT_GENERAL },
+		};
+		VkWriteDescriptorSet w[12];
+		for (uint32_t i = 0; i < 12; i++) {
+			bi[i] = (VkDescriptorBufferInfo){ bufs[i], 0, VK_WHOLE_SIZE };
+			w[i] = (VkWriteDescriptorSet){
+				.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+				.dstSet = v->set[s],
+				.dstBinding = i,
+				.descriptorCount = 1,
+				.descriptorType = i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+				.pBufferInfo = i == 9 || i == 10 ? NULL : &bi[i],
+				.pImageInfo = i == 9 ? &ii[0] : i == 10 ? &ii[1] : NULL,
+			};
+		}
+		vkUpdateDescriptorSets(vk->device, 12, w, 0, NULL);
+	}
+	/* Hysteresis starts with nothing split. */
+	VkCommandBuffer cmd;
+	if ((ret = relief_vk_cmd_begin(vk, &cmd)) < 0)
+		goto fail;
+	vkCmdFillBuffer(cmd, v->split[0].buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdFillBuffer(cmd, v->split[1].buffer, 0, VK_WHOLE_SIZE, 0);
+	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
+		goto fail;
+	*out = v;
+	return 0;
+fail:
+	relief_terrain_view_destroy(v);
+	return ret;
+}
+
+void relief_terrain_view_destroy(struct relief_terrain_view *v)
+{
+	if (!v)
+		return;
+	struct relief_vk *vk = v->t->vk;
+	if (v->pool)
+		vkDestroyDescriptorPool(vk->device, v->pool, NULL);
+	relief_vk_buffer_finish(vk, &v->split[0]);
+	relief_vk_buffer_finish(vk, &v->split[1]);
+	relief_vk_buffer_finish(vk, &v->instances);
+	relief_vk_buffer_finish(vk, &v->cmds);
+	relief_vk_buffer_finish(vk, &v->counters);
+	relief_vk_buffer_finish(vk, &v->wants);
+	free(v);
+}
+
+static void barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags sa, VkPipelineStageFlags dst,
+                    VkAccessFlags da)
+{
+	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, sa, da };
+	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
+}
+
+int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                        struct relief_vk_target *target, uint64_t frame, bool wire, struct relief_terrain_stats *st)
+{
+	const char *why;
+	if (relief_view_check(view, &why) < 0)
+		return -EINVAL;
+	struct relief_vk *vk = t->vk;
+	const struct relief_file *f = t->file;
+	struct relief_view_origin o;
+	relief_view_origin(f, view, &o);
+	struct select_push sp = {
+		.cell = { (int32_t)o.cell_x, (int32_t)o.cell_y },
+		.frac = { (float)o.frac_x, (float)o.frac_y },
+		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
+		.cam_z = (float)o.z,
+		.kappa = (float)relief_view_kappa(view),
+		.tau = (float)view->tau,
+		.frame = (uint32_t)frame,
+		.count = t->count,
+		.levels = f->hdr.levels,
+		.P = f->hdr.patch_size,
+		.want_cap = WANT_CAP,
+		.delta_finest = (float)f->hdr.tolerance,
+		.ratio = f->hdr.ratio,
+	};
+	relief_view_matrix(view, sp.vp);
+	struct draw_push dp = {
+		.viewport = { (float)view->width, (float)view->height },
+		.tau = (float)view->tau,
+		.cam_z = (float)o.z,
+		.P = f->hdr.patch_size,
+		.blocks = t->blocks,
+		.per_patch = t->per_patch,
+		.sun = { 0.45f, 0.3f, 0.84f, 0.0f },
+		.hrange = { (float)f->hdr.height_min, (float)f->hdr.height_max },
+	};
+	memcpy(dp.vp, sp.vp, sizeof(dp.vp));
+	struct commands_push cp = { t->per_patch, t->per_draw, t->max_draws };
+
+	VkCommandBuffer cmd;
+	int ret = relief_vk_cmd_begin(vk, &cmd);
+	if (ret < 0)
+		return ret;
+	if (t->timer) {
+		vkCmdResetQueryPool(cmd, t->timer, 0, 3);
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, t->timer, 0);
+	}
+	if (t->stats_pool)
+		vkCmdResetQueryPool(cmd, t->stats_pool, 0, 1);
+	/* The previous frame's readers are done (we waited); decodes' writes are visible. */
+	barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	VkDescriptorSet set = v->set[v->parity];
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select);
+	vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
+	vkCmdDispatch(cmd, (t->count + 63) / 64, 1, 1);
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	/* Different push ranges make the layouts incompatible for the set: bind it again. */
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
+	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
+	vkCmdDispatch(cmd, 1, 1, 1);
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
+	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
+	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
+	if (t->timer)
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, t->timer, 1);
+
+	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
+	relief_vk_target_begin(target, cmd, sky);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
+	if (t->stats_pool)
+		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
+	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
+		dp.mode = (uint32_t)pass;
+		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pass ? t->draw_wire : t->draw_fill);
+		vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(dp), &dp);
+		if (vk->has.draw_indirect_count)
+			vkCmdDrawIndirectCount(cmd, v->cmds.buffer, 0, v->counters.buffer, offsetof(struct counters, draws),
+			                       t->max_draws, 16);
+		else /* unused records hold zero instances */
+			vkCmdDrawIndirect(cmd, v->cmds.buffer, 0, t->max_draws, 16);
+		if (t->stats_pool && pass == 0)
+			vkCmdEndQuery(cmd, t->stats_pool, 0);
+	}
+	relief_vk_target_end(target, cmd);
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+	        VK_ACCESS_HOST_READ_BIT);
+	if (t->timer)
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, t->timer, 2);
+	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
+		return ret;
+	v->parity ^= 1;
+
+	const struct counters *c = v->counters.map;
+	struct relief_terrain_stats s = { .patches = c->drawn, .draws = c->draws, .requests = c->wants };
+	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
+	if (t->stats_pool)
+		vkGetQueryPoolResults(vk->device, t->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
+		                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+	if (t->timer) {
+		uint64_t ts[3];
+		if (vkGetQueryPoolResults(vk->device, t->timer, 0, 3, sizeof(ts), ts, sizeof(uint64_t),
+		                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) == VK_SUCCESS) {
+			s.select_ns = (uint64_t)((ts[1] - ts[0]) * (double)vk->props.limits.timestampPeriod);
+			s.gpu_ns = (uint64_t)((ts[2] - ts[0]) * (double)vk->props.limits.timestampPeriod);
+		}
+	}
+	/* Requests: coarser patches first (lower ids are coarser). */
+	const uint32_t *want = v->wants.map;
+	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
+	for (uint32_t i = 0; i < n; i++) {
+		uint32_t l, px, py;
+		if (relief_patch_coords(&f->layout, want[i], &l, &px, &py))
+			relief_patch_cache_request(t->cache, want[i], (float)l);
+	}
+	if (st)
+		*st = s;
+	return 0;
+}
+
+uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
+{
+	const struct instance *in = v->instances.map;
+	uint32_t n = v->last_drawn < cap ? v->last_drawn : cap;
+	for (uint32_t i = 0; i < n; i++)
+		ids[i] = in[i].id;
+	return n;
+}

@@ -1,0 +1,45 @@
+/* The terrain renderer: per view, compute shaders select the patches (coarse LOD, frustum
+ * culling, requests for missing patches) and write indirect draw records; the tessellator
+ * refines each patch per block from its block errors (fine LOD); skirts close the gaps
+ * between patches of different levels. No per-patch work on the CPU per frame.
+ *
+ * Ownership: struct relief_terrain owns its pipelines and the static per-patch buffer;
+ * struct relief_terrain_view owns one view's buffers (hysteresis state, instances, draw
+ * records, counters, requests). Both borrow the Vulkan context, the file and the cache,
+ * which must outlive them. Any number of views may draw from one terrain and one cache. */
+#pragma once
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "format.h"
+#include "lod.h"
+#include "patch_cache.h"
+#include "target.h"
+
+struct relief_terrain;
+struct relief_terrain_view;
+
+struct relief_terrain_stats {
+	uint32_t patches;       /* drawn */
+	uint32_t draws;         /* indirect draw records */
+	uint32_t requests;      /* missing patches asked for this frame */
+	uint64_t triangles;     /* primitives reaching the clipper (pipeline statistics), 0 if unsupported */
+	uint64_t gpu_ns;        /* whole frame (selection, draw, copy-out) */
+	uint64_t select_ns;     /* selection compute */
+};
+
+int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
+                          const struct relief_vk_target *target, struct relief_terrain **out);
+void relief_terrain_destroy(struct relief_terrain *t);
+
+int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_view **out);
+void relief_terrain_view_destroy(struct relief_terrain_view *v);
+
+/* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then
+ * passes the view's requests for missing patches to the cache (coarse first). */
+int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                        struct relief_vk_target *target, uint64_t frame, bool wire, struct relief_terrain_stats *st);
+
+/* The last frame's drawn patch ids (unordered), for tests; returns the count. */
+uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

@@ -1,0 +1,199 @@
+#include <errno.h>
+#include <math.h>
+#include <string.h>
+
+#include "lod.h"
+
+int relief_view_check(const struct relief_view *v, const char **why)
+{
+	const double vals[] = { v->eye.x, v->eye.y, v->eye.z, v->target.x, v->target.y, v->target.z, v->fovy,
+	                        v->znear, v->zfar, v->tau };
+	for (size_t i = 0; i < sizeof(vals) / sizeof(vals[0]); i++)
+		if (!isfinite(vals[i])) {
+			*why = "a camera value is not a finite number";
+			return -EINVAL;
+		}
+	if (v->width == 0 || v->height == 0 || v->width > 16384 || v->height > 16384) {
+		*why = "the viewport must be 1..16384 pixels on each side";
+		return -EINVAL;
+	}
+	struct relief_mat4 m;
+	if (!relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &m)) {
+		*why = "the camera equals the look point, or looks straight up or down";
+		return -EINVAL;
+	}
+	if (!(v->fovy > 1e-4 && v->fovy < M_PI - 1e-4)) {
+		*why = "the field of view must lie strictly between 0 and 180 degrees";
+		return -EINVAL;
+	}
+	if (!(v->znear > 0 && v->zfar > v->znear)) {
+		*why = "near and far planes must satisfy 0 < near < far";
+		return -EINVAL;
+	}
+	if (!(v->tau > 0)) {
+		*why = "tau must be a positive number of pixels";
+		return -EINVAL;
+	}
+	return 0;
+}
+
+double relief_view_kappa(const struct relief_view *v)
+{
+	return 0.5 * v->height / tan(0.5 * v->fovy);
+}
+
+void relief_view_origin(const struct relief_file *f, const struct relief_view *v, struct relief_view_origin *o)
+{
+	double gx = (v->eye.x - f->hdr.origin_x) / f->hdr.spacing_x;
+	double gy = (f->hdr.origin_y - v->eye.y) / f->hdr.spacing_y;
+	/* Cameras further than 2^30 samples away see nothing anyway; keep int32 for the GPU. */
+	const double lim = 1073741824.0;
+	gx = gx < -lim ? -lim : gx > lim ? lim : gx;
+	gy = gy < -lim ? -lim : gy > lim ? lim : gy;
+	double fx = floor(gx), fy = floor(gy);
+	o->cell_x = (int64_t)fx;
+	o->cell_y = (int64_t)fy;
+	o->frac_x = gx - fx;
+	o->frac_y = gy - fy;
+	o->z = v->eye.z;
+}
+
+/* Float arithmetic identical to box() in shaders/lod_select.comp (this file is compiled
+ * without fused multiply-adds: ISO C mode), so CPU and GPU agree on every decision. */
+void relief_patch_box(const struct relief_file *f, const struct relief_view_origin *o, uint32_t id,
+                      struct relief_box *box)
+{
+	uint32_t l, px, py;
+	relief_patch_coords(&f->layout, id, &l, &px, &py);
+	struct relief_patch_record r;
+	relief_file_record(f, id, &r);
+	int32_t span = (int32_t)(f->hdr.patch_size - 1) << (f->hdr.levels - 1 - l);
+	float sx = (float)f->hdr.spacing_x, sy = (float)f->hdr.spacing_y;
+	float x0 = ((float)((int32_t)px * span - (int32_t)o->cell_x) - (float)o->frac_x) * sx;
+	float y0 = ((float)((int32_t)py * span - (int32_t)o->cell_y) - (float)o->frac_y) * sy;
+	float w = (float)span * sx, h = (float)span * sy;
+	float x1 = x0 + w, y1 = y0 + h;
+	box->min[0] = x0;
+	box->max[0] = x1;
+	box->min[1] = -y1; /* rows grow southwards, y northwards */
+	box->max[1] = -y0;
+	box->min[2] = r.height_min - (float)o->z;
+	box->max[2] = r.height_max - (float)o->z;
+}
+
+float relief_box_distance(const struct relief_box *b)
+{
+	float d[3];
+	for (int i = 0; i < 3; i++) {
+		float m = b->min[i] > -b->max[i] ? b->min[i] : -b->max[i];
+		d[i] = m > 0.0f ? m : 0.0f;
+	}
+	float d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+	return sqrtf(d2);
+}
+
+float relief_patch_screen_error(const struct relief_file *f, const struct relief_view_origin *o, float kappa,
+                                uint32_t id)
+{
+	struct relief_box b;
+	relief_patch_box(f, o, id, &b);
+	struct relief_patch_record r;
+	relief_file_record(f, id, &r);
+	float d = relief_box_distance(&b);
+	return d > 0.0f ? r.error * kappa / d : INFINITY;
+}
+
+void relief_view_matrix(const struct relief_view *v, float out[16])
+{
+	struct relief_mat4 view, proj, vp;
+	relief_mat4_look_at((struct relief_vec3){ 0, 0, 0 }, relief_vec3_sub(v->target, v->eye),
+	                    (struct relief_vec3){ 0, 0, 1 }, &view);
+	proj = relief_mat4_perspective(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
+	vp = relief_mat4_mul(&proj, &view);
+	relief_mat4_to_float(&vp, out);
+}
+
+bool relief_box_culled(const float m[16], const struct relief_box *b)
+{
+	/* Clip coordinates of the 8 corners; culled if all are beyond one plane. */
+	float c[8][4];
+	for (int k = 0; k < 8; k++) {
+		float x = k & 1 ? b->max[0] : b->min[0], y = k & 2 ? b->max[1] : b->min[1], z = k & 4 ? b->max[2] : b->min[2];
+		for (int r = 0; r < 4; r++)
+			c[k][r] = m[r] * x + m[4 + r] * y + m[8 + r] * z + m[12 + r];
+	}
+	int out[6] = { 0 };
+	for (int k = 0; k < 8; k++) {
+		out[0] += c[k][0] < -c[k][3];
+		out[1] += c[k][0] > c[k][3];
+		out[2] += c[k][1] < -c[k][3];
+		out[3] += c[k][1] > c[k][3];
+		out[4] += c[k][2] < 0.0f;
+		out[5] += c[k][2] > c[k][3];
+	}
+	for (int p = 0; p < 6; p++)
+		if (out[p] == 8)
+			return true;
+	return false;
+}
+
+static bool wants_split(float err, float tau, bool was_split)
+{
+	return err > tau || (was_split && err > RELIEF_LOD_MERGE * tau);
+}
+
+uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
+                           const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw, uint32_t *want,
+                           uint32_t want_cap, uint32_t *n_want)
+{
+	struct relief_view_origin o;
+	relief_view_origin(f, v, &o);
+	const float kappa = (float)relief_view_kappa(v), tau = (float)v->tau;
+	const struct relief_layout *lay = &f->layout;
+	float vp[16];
+	relief_view_matrix(v, vp);
+	uint32_t drawn = 0;
+	*n_want = 0;
+	memset(draw, 0, lay->patch_count);
+	draw[0] = 2;
+	/* Level by level: a patch's "reachable" = every ancestor splits with its children there. */
+	for (uint32_t id = 0; id < lay->patch_count; id++) {
+		uint32_t l, px, py;
+		relief_patch_coords(lay, id, &l, &px, &py);
+		bool reachable = draw[id] == 2; /* 2: marked by its parent (the root: above) */
+		draw[id] = 0;
+		struct relief_box box;
+		relief_patch_box(f, &o, id, &box);
+		struct relief_patch_record rec;
+		relief_file_record(f, id, &rec);
+		float d = relief_box_distance(&box);
+		float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
+		bool wish = l + 1 < lay->levels && wants_split(err, tau, split_prev[id]);
+		split_next[id] = wish;
+		if (!reachable || !resident[id] || relief_box_culled(vp, &box))
+			continue;
+		bool children_there = true;
+		uint32_t child0 = 0;
+		if (wish) {
+			child0 = relief_patch_id(l + 1, 2 * px, 2 * py);
+			for (uint32_t k = 0; k < 4; k++) {
+				uint32_t c = child0 + (k & 1) + (k >> 1) * (1u << (l + 1));
+				struct relief_patch_record r;
+				relief_file_record(f, c, &r);
+				if (!(r.flags & RELIEF_PATCH_EMPTY) && !resident[c]) {
+					children_there = false;
+					if (*n_want < want_cap)
+						want[(*n_want)++] = c;
+				}
+			}
+		}
+		if (wish && children_there) {
+			for (uint32_t k = 0; k < 4; k++)
+				draw[child0 + (k & 1) + (k >> 1) * (1u << (l + 1))] = 2;
+		} else {
+			draw[id] = 1;
+			drawn++;
+		}
+	}
+	return drawn;
+}

@@ -1,0 +1,71 @@
+/* Coarse level of detail: views, screen-space error and the patch selection rule
+ * (docs/lod.md; design notes §3). The CPU functions here are the reference that the
+ * selection compute shader (shaders/lod_select.comp) must match bit for bit in its result.
+ *
+ * A view is a camera and a threshold; nothing here is global, so any number of views may
+ * select from one cache at once. */
+#pragma once
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "format.h"
+#include "mat4.h"
+
+struct relief_view {
+	struct relief_vec3 eye;    /* world metres, double precision */
+	struct relief_vec3 target; /* a point the camera looks at */
+	double fovy;               /* vertical field of view, radians, in (0, pi) */
+	uint32_t width, height;    /* viewport, pixels */
+	double znear, zfar;        /* metres */
+	double tau;                /* screen-space error threshold, pixels */
+};
+
+/* 0, or -EINVAL with a reason for NaN/infinite values, a zero-size viewport, eye equal to
+ * target, a view straight up or down (undefined roll), fov outside (0, pi), near/far not
+ * 0 < near < far, or tau <= 0. */
+int relief_view_check(const struct relief_view *v, const char **why);
+
+/* kappa = height / (2 tan(fovy / 2)): pixels per unit of error / distance. */
+double relief_view_kappa(const struct relief_view *v);
+
+/* Where the camera is in the file's finest sample grid: integer cell plus fraction, so that
+ * camera-relative positions can be formed exactly for terrains at any coordinates. */
+struct relief_view_origin {
+	int64_t cell_x, cell_y; /* finest-level sample indices (column, row) */
+	double frac_x, frac_y;  /* in [0, 1) samples */
+	double z;               /* metres */
+};
+void relief_view_origin(const struct relief_file *f, const struct relief_view *v, struct relief_view_origin *o);
+
+/* Bounding box of patch id relative to the camera (metres; x east, y north, z up). */
+struct relief_box {
+	float min[3], max[3];
+};
+void relief_patch_box(const struct relief_file *f, const struct relief_view_origin *o, uint32_t id,
+                      struct relief_box *box);
+/* Distance from the camera (at the origin) to the box; 0 inside. */
+float relief_box_distance(const struct relief_box *b);
+
+/* Camera-relative view-projection (the camera at the origin; Vulkan clip conventions). */
+void relief_view_matrix(const struct relief_view *v, float out[16]);
+/* True when the box lies entirely outside one plane of the frustum of `vp`. */
+bool relief_box_culled(const float vp[16], const struct relief_box *b);
+
+/* Hysteresis: a patch splits when its screen error exceeds tau, and stays split until it
+ * falls below RELIEF_LOD_MERGE * tau, so a still camera does not flicker. */
+#define RELIEF_LOD_MERGE 0.8f
+
+/* Screen-space error of patch id for this view: Err(P) * kappa / distance (inf inside). */
+float relief_patch_screen_error(const struct relief_file *f, const struct relief_view_origin *o, float kappa,
+                                uint32_t id);
+
+/* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
+ * drawn (resident in the cache); `split_prev` / `split_next` are the view's hysteresis bits
+ * (one byte per patch; next is written for every patch). Fills `draw[id]` (1 = draw) and
+ * returns the number drawn. Patches outside the frustum are neither drawn nor split. `want`
+ * receives up to want_cap children that should be resident
+ * (their parent splits but not all its children are there), `*n_want` their count. */
+uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
+                           const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw, uint32_t *want,
+                           uint32_t want_cap, uint32_t *n_want);

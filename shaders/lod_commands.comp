@@ -1,0 +1,27 @@
+#version 450
+// Cuts the drawn patches' quad-patch instances into indirect draw records of at most
+// per_draw instances each (the lavapipe bound on tessellated vertices per draw), and
+// writes the record count for vkCmdDrawIndirectCount.
+layout(local_size_x = 64) in;
+
+struct DrawCmd { uint vertex_count, instance_count, first_vertex, first_instance; };
+layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint pad; } counters;
+layout(std430, binding = 8) writeonly buffer Cmds { DrawCmd cmds[]; };
+
+layout(push_constant) uniform Push {
+	uint per_patch; // quad patches (blocks and skirts) per drawn patch
+	uint per_draw;  // quad patches per draw record
+	uint max_draws;
+} pc;
+
+void main()
+{
+	uint total = counters.drawn * pc.per_patch;
+	uint draws = min((total + pc.per_draw - 1u) / pc.per_draw, pc.max_draws);
+	for (uint g = gl_GlobalInvocationID.x; g < draws; g += gl_WorkGroupSize.x) {
+		uint first = g * pc.per_draw;
+		cmds[g] = DrawCmd(4u, min(pc.per_draw, total - first), 0u, first);
+	}
+	if (gl_GlobalInvocationID.x == 0u)
+		counters.draws = draws;
+}

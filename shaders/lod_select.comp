@@ -1,0 +1,141 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "terrain_common.glsl"
+// Coarse LOD for one view, one invocation per patch (common/lod.c is the CPU reference).
+// A patch is drawn when every ancestor is resident, in the frustum, wants to split and has
+// its children there, while the patch itself is resident, in the frustum, and either does
+// not want to split or lacks children. Each invocation re-derives its ancestors' decisions,
+// so no invocation waits for another. Box, distance and error use the same float
+// arithmetic as the CPU, written `precise` so that no multiply-add is fused.
+layout(local_size_x = 64) in;
+
+layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
+layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
+layout(std430, binding = 2) readonly buffer SplitPrev { uint split_prev[]; };
+layout(std430, binding = 3) writeonly buffer SplitNext { uint split_next[]; };
+layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
+layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint pad; } counters;
+layout(std430, binding = 6) writeonly buffer Wants { uint want[]; };
+layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
+
+layout(push_constant) uniform Push {
+	mat4 vp;          // camera-relative view-projection
+	ivec2 cell;       // camera's finest sample cell
+	vec2 frac;        // and its fraction
+	vec2 spacing;     // finest spacing, metres
+	float cam_z, kappa, tau;
+	uint frame, count, levels, P, want_cap;
+	float delta_finest; // tolerance of the finest level, metres
+	uint ratio;
+} pc;
+
+uint first_id(uint l) { return ((1u << (2u * l)) - 1u) / 3u; }
+
+void box(uint l, uint px, uint py, uint id, out vec3 bmin, out vec3 bmax)
+{
+	int span = int(pc.P - 1u) << (pc.levels - 1u - l);
+	precise float x0 = (float(int(px) * span - pc.cell.x) - pc.frac.x) * pc.spacing.x;
+	precise float y0 = (float(int(py) * span - pc.cell.y) - pc.frac.y) * pc.spacing.y;
+	precise float w = float(span) * pc.spacing.x, h = float(span) * pc.spacing.y;
+	precise float x1 = x0 + w, y1 = y0 + h;
+	bmin = vec3(x0, -y1, info[id].hmin - pc.cam_z);
+	bmax = vec3(x1, -y0, info[id].hmax - pc.cam_z);
+}
+
+float distance_to(vec3 bmin, vec3 bmax)
+{
+	precise vec3 d = max(max(bmin, -bmax), vec3(0.0));
+	precise float d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+	return sqrt(d2);
+}
+
+bool culled(vec3 bmin, vec3 bmax)
+{
+	int out_count[6] = int[6](0, 0, 0, 0, 0, 0);
+	for (int k = 0; k < 8; k++) {
+		vec3 p = vec3((k & 1) != 0 ? bmax.x : bmin.x, (k & 2) != 0 ? bmax.y : bmin.y, (k & 4) != 0 ? bmax.z : bmin.z);
+		vec4 c = pc.vp * vec4(p, 1.0);
+		out_count[0] += c.x < -c.w ? 1 : 0;
+		out_count[1] += c.x > c.w ? 1 : 0;
+		out_count[2] += c.y < -c.w ? 1 : 0;
+		out_count[3] += c.y > c.w ? 1 : 0;
+		out_count[4] += c.z < 0.0 ? 1 : 0;
+		out_count[5] += c.z > c.w ? 1 : 0;
+	}
+	for (int i = 0; i < 6; i++)
+		if (out_count[i] == 8)
+			return true;
+	return false;
+}
+
+bool wants_split(uint l, uint id, float d)
+{
+	if (l + 1u >= pc.levels)
+		return false;
+	precise float err = d > 0.0 ? info[id].err * pc.kappa / d : 1.0 / 0.0;
+	return err > pc.tau || (split_prev[id] != 0u && err > 0.8 * pc.tau);
+}
+
+bool child_missing(uint c) { return info[c].skirt >= 0.0 && layer_of[c] < 0; }
+
+void main()
+{
+	uint id = gl_GlobalInvocationID.x;
+	if (id >= pc.count)
+		return;
+	uint l = 0u;
+	while (first_id(l + 1u) <= id)
+		l++;
+	uint local = id - first_id(l), side = 1u << l;
+	uint px = local % side, py = local / side;
+	vec3 bmin, bmax;
+	box(l, px, py, id, bmin, bmax);
+	float d = distance_to(bmin, bmax);
+	bool wish = wants_split(l, id, d);
+	split_next[id] = wish ? 1u : 0u;
+
+	// Every ancestor must split with its children there (and be resident and visible).
+	for (uint a = 0u; a < l; a++) {
+		uint ax = px >> (l - a), ay = py >> (l - a), aid = first_id(a) + ay * (1u << a) + ax;
+		vec3 amin, amax;
+		box(a, ax, ay, aid, amin, amax);
+		if (layer_of[aid] < 0 || culled(amin, amax) || !wants_split(a, aid, distance_to(amin, amax)))
+			return;
+		uint c0 = first_id(a + 1u) + 2u * ay * (2u << a) + 2u * ax, row = 2u << a;
+		if (child_missing(c0) || child_missing(c0 + 1u) || child_missing(c0 + row) || child_missing(c0 + row + 1u))
+			return;
+	}
+	if (layer_of[id] < 0 || culled(bmin, bmax))
+		return;
+	if (wish) {
+		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
+		uint kids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u);
+		bool there = true;
+		for (int k = 0; k < 4; k++)
+			if (child_missing(kids[k])) {
+				there = false;
+				uint n = atomicAdd(counters.wants, 1u);
+				if (n < pc.want_cap)
+					want[n] = kids[k];
+			}
+		if (there)
+			return; // the children draw this area
+	}
+	uint n = atomicAdd(counters.drawn, 1u);
+	Instance it;
+	it.id = id;
+	it.layer = layer_of[id];
+	it.level = l;
+	float q2 = 2.0 * pc.delta_finest; // 2 delta_l = 2 delta_L ratio^(L - l), exact in float
+	for (uint k = l + 1u; k < pc.levels; k++)
+		q2 *= float(pc.ratio);
+	it.q2 = q2;
+	it.origin = vec2(bmin.x, bmax.y);
+	it.step = vec2(pc.spacing.x, pc.spacing.y) * float(1u << (pc.levels - 1u - l));
+	it.err = info[id].err;
+	it.skirt = info[id].skirt;
+	it.pad0 = 0.0;
+	it.pad1 = 0.0;
+	inst[n] = it;
+	use_frame[id] = pc.frame;
+}

@@ -1,0 +1,22 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "terrain_common.glsl"
+#include "terrain_draw.glsl"
+// One sun, a height ramp (water-level green to snow) and rock on steep slopes.
+layout(location = 0) in vec3 in_normal;
+layout(location = 1) in float in_height;
+layout(location = 0) out vec4 out_color;
+void main()
+{
+	if (pc.mode == 1u) {
+		out_color = vec4(0.05, 0.05, 0.05, 1.0);
+		return;
+	}
+	vec3 n = normalize(in_normal);
+	float t = clamp((in_height - pc.hrange.x) / max(pc.hrange.y - pc.hrange.x, 1e-3), 0.0, 1.0);
+	vec3 low = vec3(0.27, 0.45, 0.22), mid = vec3(0.55, 0.50, 0.36), high = vec3(0.96, 0.96, 0.98);
+	vec3 albedo = t < 0.55 ? mix(low, mid, t / 0.55) : mix(mid, high, (t - 0.55) / 0.45);
+	albedo = mix(albedo, vec3(0.45, 0.43, 0.41), smoothstep(0.55, 0.8, 1.0 - n.z));
+	float diffuse = max(dot(n, normalize(pc.sun.xyz)), 0.0);
+	out_color = vec4(albedo * (0.3 + 0.7 * diffuse), 1.0);
+}

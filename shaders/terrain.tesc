@@ -1,0 +1,86 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "terrain_common.glsl"
+#include "terrain_draw.glsl"
+// Fine LOD (design notes §4): each edge of a tessellation block takes the coarsest
+// simplification d (factor 16 / 2^d) whose error segment, eps_d of the blocks on both sides
+// plus Err(P), centred on the edge's midpoint and projected, is at most tau pixels long.
+// Both blocks of an inner edge compute it from the same numbers, so the patch is seamless
+// inside. The inner factor is the largest of the edge factors (the paper takes the
+// smallest; the largest keeps the bound where the block is closest to the camera).
+// A skirt quad takes its block's factor along the patch border, 1 across.
+layout(vertices = 4) out;
+layout(location = 0) in flat uint in_slot[];
+layout(location = 1) in flat uint in_kind[];
+layout(location = 2) in vec2 in_s[];
+layout(location = 3) in float in_down[];
+layout(location = 0) out flat uint out_slot[];
+layout(location = 2) out vec2 out_s[];
+layout(location = 3) out float out_down[];
+
+vec4 block_eps(Instance it, int bx, int by)
+{
+	uint base = (uint(it.layer) * pc.blocks * pc.blocks + uint(by) * pc.blocks + uint(bx)) * 4u;
+	return vec4(block_err[base], block_err[base + 1u], block_err[base + 2u], block_err[base + 3u]);
+}
+
+float seg_pixels(vec3 p, float e)
+{
+	vec4 a = pc.vp * vec4(p - vec3(0.0, 0.0, 0.5 * e), 1.0);
+	vec4 b = pc.vp * vec4(p + vec3(0.0, 0.0, 0.5 * e), 1.0);
+	if (a.w <= 1e-6 || b.w <= 1e-6)
+		return 1.0 / 0.0; // reaches behind the camera: keep full detail
+	vec2 d = (a.xy / a.w - b.xy / b.w) * 0.5 * pc.viewport;
+	return length(d);
+}
+
+float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
+{
+	ivec2 m = ivec2((a + b) * 0.5 + 0.5);
+	int q = imageLoad(heights, ivec3(m + 1, it.layer)).x;
+	vec3 p = vec3(it.origin.x + float(m.x) * it.step.x, it.origin.y - float(m.y) * it.step.y, it.q2 * float(q) - pc.cam_z);
+	for (int d = 4; d >= 1; d--)
+		if (seg_pixels(p, eps[d - 1] + it.err) <= pc.tau)
+			return float(BLOCK_CELLS >> uint(d));
+	return float(BLOCK_CELLS);
+}
+
+void main()
+{
+	out_slot[gl_InvocationID] = in_slot[gl_InvocationID];
+	out_s[gl_InvocationID] = in_s[gl_InvocationID];
+	out_down[gl_InvocationID] = in_down[gl_InvocationID];
+	if (gl_InvocationID != 0)
+		return;
+	Instance it = inst[in_slot[0]];
+	int b = int(pc.blocks);
+	if (in_kind[0] == 0u) {
+		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
+		vec4 e = block_eps(it, bl.x, bl.y);
+		vec4 w = bl.x > 0 ? max(e, block_eps(it, bl.x - 1, bl.y)) : e;
+		vec4 n = bl.y > 0 ? max(e, block_eps(it, bl.x, bl.y - 1)) : e;
+		vec4 ea = bl.x + 1 < b ? max(e, block_eps(it, bl.x + 1, bl.y)) : e;
+		vec4 s = bl.y + 1 < b ? max(e, block_eps(it, bl.x, bl.y + 1)) : e;
+		float f0 = edge_factor(it, in_s[0], in_s[2], w);  // u = 0: west
+		float f1 = edge_factor(it, in_s[0], in_s[1], n);  // v = 0: north
+		float f2 = edge_factor(it, in_s[1], in_s[3], ea); // u = 1: east
+		float f3 = edge_factor(it, in_s[2], in_s[3], s);  // v = 1: south
+		gl_TessLevelOuter[0] = f0;
+		gl_TessLevelOuter[1] = f1;
+		gl_TessLevelOuter[2] = f2;
+		gl_TessLevelOuter[3] = f3;
+		gl_TessLevelInner[0] = max(f1, f3);
+		gl_TessLevelInner[1] = max(f0, f2);
+	} else {
+		uint j = in_kind[0] - 1u, side = j / pc.blocks;
+		int i = int(j % pc.blocks);
+		ivec2 bl = side == 0u ? ivec2(i, 0) : side == 1u ? ivec2(i, b - 1) : side == 2u ? ivec2(0, i) : ivec2(b - 1, i);
+		float f = edge_factor(it, in_s[0], in_s[1], block_eps(it, bl.x, bl.y));
+		gl_TessLevelOuter[0] = 1.0;
+		gl_TessLevelOuter[1] = f;
+		gl_TessLevelOuter[2] = 1.0;
+		gl_TessLevelOuter[3] = f;
+		gl_TessLevelInner[0] = f;
+		gl_TessLevelInner[1] = 1.0;
+	}
+}

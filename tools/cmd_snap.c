@@ -1,0 +1,200 @@
+/* relief snap FILE.relief --camera X,Y,Z --look X,Y,Z ...: one frame rendered in-process
+ * through the GPU cache, compute LOD and indirect tessellated draws. Patches are decoded
+ * until the view asks for no more, then the final frame is written. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "format.h"
+#include "le.h"
+#include "lod.h"
+#include "patch_cache.h"
+#include "terrain.h"
+#include "vk.h"
+
+static void snap_usage(FILE *f)
+{
+	fprintf(f,
+		"usage: relief snap FILE.relief --camera X,Y,Z --look X,Y,Z -o OUT.png [options]\n"
+		"Renders one frame headless. Positions are world coordinates (metres; see relief info).\n"
+		"  -o, --output FILE    PNG to write\n"
+		"      --camera X,Y,Z   eye position\n"
+		"      --look X,Y,Z     a point the camera looks at\n"
+		"      --fov DEG        vertical field of view (default 50)\n"
+		"      --size WxH       viewport (default 1280x720)\n"
+		"      --tau PX         screen-space error threshold in pixels (default 1)\n"
+		"      --wire           overlay the wireframe\n"
+		"      --depth FILE     distance along the view axis per pixel: little-endian float32,\n"
+		"                       row-major from the top row, +infinity where no terrain is seen\n"
+		"      --budget MIB     GPU memory for the patch cache (default 256)\n"
+		"      --device DEV     Vulkan device: name substring, deviceUUID or render node\n"
+		"      --validation     enable the Khronos validation layer\n");
+}
+
+int cmd_snap(int argc, char **argv)
+{
+	static const struct option opts[] = {
+		{ "output", required_argument, NULL, 'o' }, { "camera", required_argument, NULL, 'c' },
+		{ "look", required_argument, NULL, 'l' },   { "fov", required_argument, NULL, 'f' },
+		{ "size", required_argument, NULL, 's' },   { "tau", required_argument, NULL, 't' },
+		{ "wire", no_argument, NULL, 'w' },         { "depth", required_argument, NULL, 'D' },
+		{ "budget", required_argument, NULL, 'b' }, { "device", required_argument, NULL, 'd' },
+		{ "validation", no_argument, NULL, 'V' },   { "help", no_argument, NULL, 'h' },
+		{ 0 },
+	};
+	const char *output = NULL, *depth_path = NULL, *device = NULL;
+	double cam[3], look[3], fov = 50.0, tau = 1.0;
+	bool have_cam = false, have_look = false, wire = false, validation = false;
+	uint32_t width = 1280, height = 720, budget = 256;
+	int c;
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, ":o:h", opts, NULL)) != -1) {
+		switch (c) {
+		case 'o': output = optarg; break;
+		case 'c':
+			if (!cli_parse_vec3("snap", "--camera", optarg, cam))
+				return EXIT_USAGE;
+			have_cam = true;
+			break;
+		case 'l':
+			if (!cli_parse_vec3("snap", "--look", optarg, look))
+				return EXIT_USAGE;
+			have_look = true;
+			break;
+		case 'f':
+			if (!cli_parse_double("snap", "--fov", optarg, &fov))
+				return EXIT_USAGE;
+			break;
+		case 's':
+			if (!cli_parse_size("snap", "--size", optarg, &width, &height))
+				return EXIT_USAGE;
+			break;
+		case 't':
+			if (!cli_parse_double("snap", "--tau", optarg, &tau))
+				return EXIT_USAGE;
+			break;
+		case 'w': wire = true; break;
+		case 'D': depth_path = optarg; break;
+		case 'b':
+			if (!cli_parse_u32("snap", "--budget", optarg, 16, 1048576, &budget))
+				return EXIT_USAGE;
+			break;
+		case 'd': device = optarg; break;
+		case 'V': validation = true; break;
+		case 'h': snap_usage(stdout); return 0;
+		default: return cli_option_error("snap", c, argv);
+		}
+	}
+	if (argc - optind != 1) {
+		fprintf(stderr, "relief snap: expected one FILE.relief (see 'relief snap --help')\n");
+		return EXIT_USAGE;
+	}
+	if (!have_cam || !have_look || !output) {
+		fprintf(stderr, "relief snap: --camera, --look and -o are required\n");
+		return EXIT_USAGE;
+	}
+	const char *path = argv[optind];
+	char err[512];
+	struct relief_file *f;
+	if (relief_file_open(path, &f, err, sizeof(err)) < 0) {
+		fprintf(stderr, "relief snap: %s: %s\n", path, err);
+		return 1;
+	}
+	/* Far plane: beyond the terrain seen from the camera; near: small against it. */
+	const struct relief_header *h = &f->hdr;
+	double ex = h->spacing_x * (h->size - 1), ey = h->spacing_y * (h->size - 1), ez = h->height_max - h->height_min;
+	double cx = h->origin_x + 0.5 * ex, cy = h->origin_y - 0.5 * ey;
+	double reach = sqrt(ex * ex + ey * ey + ez * ez) +
+	               sqrt((cam[0] - cx) * (cam[0] - cx) + (cam[1] - cy) * (cam[1] - cy) + cam[2] * cam[2]);
+	struct relief_view view = {
+		.eye = { cam[0], cam[1], cam[2] },
+		.target = { look[0], look[1], look[2] },
+		.fovy = fov * M_PI / 180.0,
+		.width = width,
+		.height = height,
+		.znear = fmax(0.05, reach * 2e-6),
+		.zfar = 2.0 * reach,
+		.tau = tau,
+	};
+	const char *why;
+	if (relief_view_check(&view, &why) < 0) {
+		fprintf(stderr, "relief snap: bad camera: %s\n", why);
+		relief_file_close(f);
+		return EXIT_USAGE;
+	}
+	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log };
+	struct relief_vk *vk = NULL;
+	struct relief_vk_target target = { 0 };
+	struct relief_patch_cache *cache = NULL;
+	struct relief_terrain *terrain = NULL;
+	struct relief_terrain_view *tv = NULL;
+	struct relief_patch_cache_options co = { .budget_bytes = (uint64_t)budget << 20 };
+	int status = 1, ret;
+	if ((ret = relief_vk_create(&vo, &vk)) < 0 || (ret = relief_vk_target_init(vk, &target, width, height)) < 0 ||
+	    (ret = relief_patch_cache_create(vk, f, &co, &cli_log, &cache)) < 0 ||
+	    (ret = relief_terrain_create(vk, f, cache, &target, &terrain)) < 0 ||
+	    (ret = relief_terrain_view_create(terrain, &tv)) < 0) {
+		fprintf(stderr, "relief snap: GPU setup failed: %s\n", strerror(-ret));
+		goto out;
+	}
+	relief_patch_cache_request(cache, 0, 0.0f);
+	struct relief_terrain_stats st = { 0 };
+	uint32_t frames = 0;
+	for (uint64_t frame = 1; frame <= 4u * h->levels + 4u; frame++) {
+		if ((ret = relief_patch_cache_flush(cache, frame)) < 0 && ret != -ENOSPC)
+			break;
+		if ((ret = relief_terrain_draw(terrain, tv, &view, &target, frame, wire, &st)) < 0)
+			break;
+		frames++;
+		if (st.requests == 0)
+			break; /* nothing more wanted: this is the frame */
+	}
+	if (ret < 0 && ret != -ENOSPC) {
+		fprintf(stderr, "relief snap: rendering failed: %s\n", strerror(-ret));
+		goto out;
+	}
+	if ((ret = cli_make_parent_dir(output)) < 0 || (ret = png_write_rgba(output, target.color_readback.map, width, height)) < 0) {
+		fprintf(stderr, "relief snap: cannot write %s: %s\n", output, strerror(-ret));
+		goto out;
+	}
+	if (depth_path) {
+		size_t n = (size_t)width * height;
+		float *dist = malloc(sizeof(float) * n);
+		const float *d = target.depth_readback.map;
+		for (size_t i = 0; i < n && dist; i++) {
+			double z = d[i];
+			float v = z >= 1.0 ? INFINITY
+			                   : (float)(view.znear * view.zfar / (view.zfar - z * (view.zfar - view.znear)));
+			le_put_f32((uint8_t *)&dist[i], v);
+		}
+		FILE *df = dist ? fopen(depth_path, "wbe") : NULL;
+		bool ok = df && fwrite(dist, sizeof(float), n, df) == n;
+		if (df && fclose(df) != 0)
+			ok = false;
+		free(dist);
+		if (!ok) {
+			fprintf(stderr, "relief snap: cannot write %s\n", depth_path);
+			goto out;
+		}
+	}
+	struct relief_patch_cache_stats cs;
+	relief_patch_cache_stats(cache, &cs);
+	printf("relief snap: wrote %s (%ux%u), tau %g px: %u patches in %u draws, %llu triangles, GPU %.2f ms "
+	       "(selection %.2f ms), %u frames to converge, %llu patches decoded, %u requests left\n",
+	       output, width, height, tau, st.patches, st.draws, (unsigned long long)st.triangles, st.gpu_ns / 1e6,
+	       st.select_ns / 1e6, frames, (unsigned long long)cs.decoded, st.requests);
+	status = vk->validation && atomic_load(&vk->validation_messages) ? 1 : 0;
+out:
+	relief_terrain_view_destroy(tv);
+	relief_terrain_destroy(terrain);
+	relief_patch_cache_destroy(cache);
+	if (vk)
+		relief_vk_target_finish(vk, &target);
+	relief_vk_destroy(vk);
+	relief_file_close(f);
+	return status;
+}
