@@ -361,6 +361,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
+	/* Everything hangs from the root: make sure it is on its way. */
+	if (relief_patch_cache_state(t->cache, 0) == RELIEF_PATCH_ABSENT)
+		relief_patch_cache_request(t->cache, 0, -1.0f);
 	struct relief_view_origin o;
 	relief_view_origin(f, view, &o);
 	struct select_push sp = {
@@ -457,6 +460,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 
 	const struct counters *c = v->counters.map;
 	struct relief_terrain_stats s = { .patches = c->drawn, .draws = c->draws, .requests = c->wants };
+	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
+		s.requests++; /* the root itself is still missing */
 	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
 	if (t->stats_pool)
 		vkGetQueryPoolResults(vk->device, t->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),

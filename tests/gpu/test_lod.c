@@ -1,0 +1,339 @@
+/* Compute LOD: the GPU selection equals the CPU reference (common/lod.c) on the same
+ * camera, over poses that stress it (grazing, inside the terrain, far away, looking at a
+ * patch corner). Validation layer on, zero messages. */
+#include <errno.h>
+#include <stdbool.h>
+#include <math.h>
+#include <string.h>
+
+#include "../data_load.h"
+#include "decode.h"
+#include "format.h"
+#include "gpu_test.h"
+#include "lod.h"
+#include "pack.h"
+#include "patch_cache.h"
+#include "terrain.h"
+
+static struct relief_vk *vk;
+
+static int setup(void **state)
+{
+	vk = gpu_test_context();
+	return 0;
+}
+
+static int teardown(void **state)
+{
+	unsigned messages = atomic_load(&vk->validation_messages);
+	relief_vk_destroy(vk);
+	return messages ? -1 : 0;
+}
+
+struct scene {
+	uint8_t *img;
+	size_t size;
+	struct relief_file *f;
+	struct relief_patch_cache *cache;
+	struct relief_vk_target target;
+	struct relief_terrain *terrain;
+	struct relief_terrain_view *view;
+};
+
+static void scene_open_at(struct scene *s, enum test_dem d, double tol, uint32_t w, uint32_t h, double dx, double dy)
+{
+	struct relief_dem dem;
+	test_dem_load(d, &dem);
+	dem.origin_x += dx;
+	dem.origin_y += dy;
+	struct relief_pack_options o = { .patch = 129, .ratio = 2, .tolerance = tol };
+	assert_int_equal(relief_pack_memory(&dem, &o, &s->img, &s->size, NULL), 0);
+	relief_dem_finish(&dem);
+	char err[256];
+	assert_int_equal(relief_file_open_memory(s->img, s->size, &s->f, err, sizeof(err)), 0);
+	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20 };
+	assert_int_equal(relief_patch_cache_create(vk, s->f, &co, &gpu_test_log, &s->cache), 0);
+	assert_int_equal(relief_vk_target_init(vk, &s->target, w, h), 0);
+	assert_int_equal(relief_terrain_create(vk, s->f, s->cache, &s->target, &s->terrain), 0);
+	assert_int_equal(relief_terrain_view_create(s->terrain, &s->view), 0);
+}
+
+static void scene_open(struct scene *s, enum test_dem d, double tol, uint32_t w, uint32_t h)
+{
+	scene_open_at(s, d, tol, w, h, 0, 0);
+}
+
+static void scene_close(struct scene *s)
+{
+	relief_terrain_view_destroy(s->view);
+	relief_terrain_destroy(s->terrain);
+	relief_vk_target_finish(vk, &s->target);
+	relief_patch_cache_destroy(s->cache);
+	relief_file_close(s->f);
+	free(s->img);
+}
+
+/* Everything resident, so that selection is the only variable. */
+static void load_everything(struct scene *s)
+{
+	for (uint32_t l = 0; l < s->f->hdr.levels; l++) {
+		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++)
+			relief_patch_cache_request(s->cache, id, 0);
+		assert_int_equal(relief_patch_cache_flush(s->cache, 1), 0);
+	}
+}
+
+static int cmp_u32(const void *a, const void *b)
+{
+	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+	return x < y ? -1 : x > y;
+}
+
+static void test_gpu_matches_cpu(void **state)
+{
+	struct scene s;
+	scene_open(&s, DEM_PUGET, 1.0, 320, 180);
+	load_everything(&s);
+	const uint32_t n = s.f->hdr.patch_count;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
+	for (uint32_t id = 0; id < n; id++)
+		resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
+	/* Puget Sound spans x, y in [0, 163840] m, heights 0..4380 m. */
+	const struct { double eye[3], at[3], tau; } poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 }, 1.0 },   /* towards Mt Rainier */
+		{ { 81920, 81920, 30000 }, { 81921, 81930, 0 }, 2.0 },       /* nearly straight down on a corner */
+		{ { 5000, 5000, 120 }, { 160000, 150000, 100 }, 0.5 },       /* grazing, low */
+		{ { 128480, 79200, 3000 }, { 130000, 80000, 3000 }, 1.0 },   /* inside the mountain */
+		{ { -900000, 80000, 9000 }, { 80000, 80000, 0 }, 4.0 },      /* far outside */
+		{ { 40960, 40960, 2000 }, { 40960 + 100, 40960 - 100, 1500 }, 8.0 },
+	};
+	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+		struct relief_view v = {
+			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
+			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = poses[p].tau,
+		};
+		struct relief_terrain_stats st;
+		/* The GPU view starts with nothing split, like prev[] here. */
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 2 + p, false, &st), 0);
+		uint32_t ng = relief_terrain_view_drawn(s.view, gpu, n);
+		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
+		uint32_t k = 0;
+		for (uint32_t id = 0; id < n; id++)
+			if (draw[id])
+				cpu[k++] = id;
+		qsort(gpu, ng, 4, cmp_u32);
+		print_message("pose %zu: GPU %u patches, CPU %u, %u requests\n", p, ng, nc, st.requests);
+		assert_int_equal(ng, nc);
+		assert_memory_equal(gpu, cpu, 4 * nc);
+		assert_int_equal(st.requests, n_want);
+		assert_int_equal(st.patches, ng);
+		/* A new view for the next pose: hysteresis state starts empty again. */
+		relief_terrain_view_destroy(s.view);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	}
+	free(resident); free(prev); free(next); free(draw); free(want); free(gpu); free(cpu);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* Renders v and copies out depth (Vulkan [0, 1]). Converges: draws until nothing is asked. */
+static void render(struct scene *s, struct relief_view *v, float *depth, struct relief_terrain_stats *st)
+{
+	for (uint64_t frame = 100; frame < 140; frame++) {
+		assert_int_equal(relief_patch_cache_flush(s->cache, frame), 0);
+		assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame, false, st), 0);
+		if (st->requests == 0)
+			break;
+	}
+	assert_int_equal(st->requests, 0);
+	memcpy(depth, s->target.depth_readback.map, sizeof(float) * v->width * v->height);
+}
+
+/* World point seen at pixel (x, y) with Vulkan depth d. */
+static struct relief_vec3 unproject(const struct relief_view *v, int x, int y, double d)
+{
+	double D = v->znear * v->zfar / (v->zfar - d * (v->zfar - v->znear)); /* along the view axis */
+	struct relief_vec3 f, r, u;
+	relief_vec3_normalize(relief_vec3_sub(v->target, v->eye), &f);
+	relief_vec3_normalize(relief_vec3_cross(f, (struct relief_vec3){ 0, 0, 1 }), &r);
+	u = relief_vec3_cross(r, f);
+	double t = tan(v->fovy / 2), aspect = (double)v->width / v->height;
+	double nx = (2.0 * (x + 0.5) / v->width - 1.0) * t * aspect, ny = (1.0 - 2.0 * (y + 0.5) / v->height) * t;
+	return (struct relief_vec3){ v->eye.x + D * (f.x + nx * r.x + ny * u.x), v->eye.y + D * (f.y + nx * r.y + ny * u.y),
+	                             v->eye.z + D * (f.z + nx * r.z + ny * u.z) };
+}
+
+/* Vertical distance from p to the finest decoded surface (nearer of the two diagonals). */
+static double vertical_error(const struct relief_file *f, const float *hf, uint32_t w, uint32_t h, struct relief_vec3 p)
+{
+	double gx = (p.x - f->hdr.origin_x) / f->hdr.spacing_x, gy = (f->hdr.origin_y - p.y) / f->hdr.spacing_y;
+	if (gx < 0 || gy < 0 || gx > w - 1 || gy > h - 1)
+		return 0.0;
+	uint32_t i = gx >= w - 1 ? w - 2 : (uint32_t)gx, j = gy >= h - 1 ? h - 2 : (uint32_t)gy;
+	double u = gx - i, t = gy - j;
+	double a = hf[j * w + i], b = hf[j * w + i + 1], c = hf[(j + 1) * w + i], d = hf[(j + 1) * w + i + 1];
+	double d0 = u >= t ? a + u * (b - a) + t * (d - b) : a + t * (c - a) + u * (d - c);
+	double d1 = u + t <= 1 ? a + u * (b - a) + t * (c - a) : d + (1 - u) * (c - d) + (1 - t) * (b - d);
+	return fmin(fabs(p.z - d0), fabs(p.z - d1));
+}
+
+static double screen_length(const struct relief_view *v, struct relief_vec3 p, double e)
+{
+	struct relief_mat4 view, proj, vp;
+	relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &view);
+	proj = relief_mat4_perspective(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
+	vp = relief_mat4_mul(&proj, &view);
+	double w0, w1;
+	struct relief_vec3 a = relief_mat4_transform(&vp, p, &w0);
+	struct relief_vec3 b = relief_mat4_transform(&vp, (struct relief_vec3){ p.x, p.y, p.z + e }, &w1);
+	double dx = (a.x / w0 - b.x / w1) * 0.5 * v->width, dy = (a.y / w0 - b.y / w1) * 0.5 * v->height;
+	return sqrt(dx * dx + dy * dy);
+}
+
+/* Against a full-resolution render of the same camera: no background inside the terrain's
+ * silhouette (cracks), and the surface's vertical error in pixels within tau. */
+static void test_watertight_and_error_bound(void **state)
+{
+	enum { W = 320, H = 180 };
+	struct scene s;
+	scene_open(&s, DEM_PUGET, 1.0, W, H);
+	uint32_t fw, fh;
+	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh);
+	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
+	float *ref = malloc(sizeof(float) * W * H), *lod = malloc(sizeof(float) * W * H);
+	const struct { double eye[3], at[3]; } poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing */
+		{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
+		{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
+	};
+	const double taus[] = { 1.0, 4.0 };
+	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+		struct relief_view v = {
+			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
+			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
+			.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 4e5, .tau = 0.001,
+		};
+		struct relief_terrain_stats st;
+		render(&s, &v, ref, &st);
+		uint32_t ref_patches = st.patches;
+		for (size_t k = 0; k < sizeof(taus) / sizeof(taus[0]); k++) {
+			v.tau = taus[k];
+			render(&s, &v, lod, &st);
+			uint32_t holes = 0, both = 0;
+			double worst = 0, worst_err = 0;
+			int r = (int)ceil(v.tau) + 1;
+			for (int y = 0; y < H; y++)
+				for (int x = 0; x < W; x++) {
+					bool interior = true;
+					for (int dy = -r; dy <= r && interior; dy++)
+						for (int dx = -r; dx <= r && interior; dx++) {
+							int xx = x + dx, yy = y + dy;
+							interior = xx >= 0 && yy >= 0 && xx < W && yy < H && ref[yy * W + xx] < 1.0f;
+						}
+					float d = lod[y * W + x];
+					if (interior && d >= 1.0f)
+						holes++;
+					if (d < 1.0f && ref[y * W + x] < 1.0f) {
+						struct relief_vec3 pt = unproject(&v, x, y, d);
+						double e = vertical_error(s.f, finest, fw, fh, pt);
+						double px = screen_length(&v, pt, e);
+						if (px > worst) {
+							worst = px;
+							worst_err = e;
+						}
+						both++;
+					}
+				}
+			print_message("pose %zu tau %g: %u patches (reference %u), %u holes, max vertical error %.3f px "
+			              "(%.2f m) over %u pixels\n", p, v.tau, st.patches, ref_patches, holes, worst, worst_err, both);
+			assert_int_equal(holes, 0);
+			assert_true(ref_patches > 0 && st.patches > 0);
+			assert_true(both > W * H / 8); /* the view really shows terrain */
+			/* The bound is against the original; the reference is the decoded finest level,
+			 * itself within delta_L of it: a few hundredths of a pixel at these distances. */
+			assert_true(worst <= v.tau + 0.05);
+		}
+	}
+	free(finest);
+	free(ref);
+	free(lod);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
+ * renders the same frame from the same relative camera: positions are camera-relative. */
+static void test_huge_coordinates(void **state)
+{
+	enum { W = 256, H = 144 };
+	const double dx = 500000.0, dy = 5000000.0;
+	uint8_t *frames[2];
+	for (int k = 0; k < 2; k++) {
+		struct scene s;
+		scene_open_at(&s, DEM_ALPS, 1.0, W, H, k ? dx : 0, k ? dy : 0);
+		double ox = k ? dx : 0, oy = k ? dy : 0;
+		struct relief_view v = {
+			.eye = { ox + 20000, oy + 20000, 5200 }, .target = { ox + 30000, oy + 40000, 3500 },
+			.fovy = 60 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 3e5, .tau = 1,
+		};
+		float *depth = malloc(sizeof(float) * W * H);
+		struct relief_terrain_stats st;
+		render(&s, &v, depth, &st);
+		frames[k] = malloc(W * H * 4);
+		memcpy(frames[k], s.target.color_readback.map, W * H * 4);
+		uint32_t terrain = 0;
+		for (int i = 0; i < W * H; i++)
+			terrain += depth[i] < 1.0f;
+		assert_true(terrain > W * H / 4);
+		free(depth);
+		scene_close(&s);
+	}
+	assert_memory_equal(frames[0], frames[1], W * H * 4);
+	free(frames[0]);
+	free(frames[1]);
+	gpu_test_assert_clean(vk);
+}
+
+static void test_view_check(void **state)
+{
+	struct relief_view good = {
+		.eye = { 0, 0, 100 }, .target = { 10, 0, 0 }, .fovy = 1, .width = 10, .height = 10, .znear = 1,
+		.zfar = 100, .tau = 1,
+	};
+	const char *why;
+	assert_int_equal(relief_view_check(&good, &why), 0);
+	struct relief_view v = good;
+	v.eye.x = NAN;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.width = 0;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.target = v.eye;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	assert_non_null(strstr(why, "look point"));
+	v = good;
+	v.target = (struct relief_vec3){ 0, 0, 0 }; /* straight down */
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.tau = 0;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.fovy = M_PI;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_view_check),
+		cmocka_unit_test(test_gpu_matches_cpu),
+		cmocka_unit_test(test_watertight_and_error_bound),
+		cmocka_unit_test(test_huge_coordinates),
+	};
+	return cmocka_run_group_tests(tests, setup, teardown);
+}
