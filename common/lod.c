@@ -197,3 +197,49 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 	}
 	return drawn;
 }
+
+struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int y, double d)
+{
+	double D = v->znear * v->zfar / (v->zfar - d * (v->zfar - v->znear)); /* along the view axis */
+	struct relief_vec3 f, r, u;
+	relief_vec3_normalize(relief_vec3_sub(v->target, v->eye), &f);
+	relief_vec3_normalize(relief_vec3_cross(f, (struct relief_vec3){ 0, 0, 1 }), &r);
+	u = relief_vec3_cross(r, f);
+	double t = tan(v->fovy / 2), aspect = (double)v->width / v->height;
+	double nx = (2.0 * (x + 0.5) / v->width - 1.0) * t * aspect, ny = (1.0 - 2.0 * (y + 0.5) / v->height) * t;
+	return (struct relief_vec3){ v->eye.x + D * (f.x + nx * r.x + ny * u.x), v->eye.y + D * (f.y + nx * r.y + ny * u.y),
+	                             v->eye.z + D * (f.z + nx * r.z + ny * u.z) };
+}
+
+double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e)
+{
+	struct relief_mat4 view, proj, vp;
+	relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &view);
+	proj = relief_mat4_perspective(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
+	vp = relief_mat4_mul(&proj, &view);
+	double w0, w1;
+	struct relief_vec3 a = relief_mat4_transform(&vp, p, &w0);
+	struct relief_vec3 b = relief_mat4_transform(&vp, (struct relief_vec3){ p.x, p.y, p.z + e }, &w1);
+	if (w0 <= 0 || w1 <= 0)
+		return INFINITY;
+	double dx = (a.x / w0 - b.x / w1) * 0.5 * v->width, dy = (a.y / w0 - b.y / w1) * 0.5 * v->height;
+	return sqrt(dx * dx + dy * dy);
+}
+
+double relief_surface_vertical_error(const struct relief_file *f, const float *hf, uint32_t w, uint32_t h,
+                                     uint32_t step, struct relief_vec3 p)
+{
+	double gx = (p.x - f->hdr.origin_x) / (f->hdr.spacing_x * step);
+	double gy = (f->hdr.origin_y - p.y) / (f->hdr.spacing_y * step);
+	if (!(gx >= 0 && gy >= 0 && gx <= w - 1 && gy <= h - 1) || w < 2 || h < 2)
+		return 0.0;
+	uint32_t i = gx >= w - 1 ? w - 2 : (uint32_t)gx, j = gy >= h - 1 ? h - 2 : (uint32_t)gy;
+	double u = gx - i, t = gy - j;
+	double a = hf[j * w + i], b = hf[j * w + i + 1], c = hf[(j + 1) * w + i], d = hf[(j + 1) * w + i + 1];
+	if (isnan(a) || isnan(b) || isnan(c) || isnan(d))
+		return 0.0;
+	double d0 = u >= t ? a + u * (b - a) + t * (d - b) : a + t * (c - a) + u * (d - c);
+	double d1 = u + t <= 1 ? a + u * (b - a) + t * (c - a) : d + (1 - u) * (c - d) + (1 - t) * (b - d);
+	double e0 = p.z - d0, e1 = p.z - d1;
+	return fabs(e0) < fabs(e1) ? e0 : e1;
+}

@@ -52,6 +52,17 @@ void relief_view_matrix(const struct relief_view *v, float out[16]);
 /* True when the box lies entirely outside one plane of the frustum of `vp`. */
 bool relief_box_culled(const float vp[16], const struct relief_box *b);
 
+/* Measuring what a frame shows (tests, benchmarks). */
+/* World point seen at pixel (x, y) whose Vulkan depth is d (perspective of the view). */
+struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int y, double d);
+/* Length in pixels of the vertical segment from p to p + e z (inf if it crosses the eye plane). */
+double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e);
+/* Signed vertical distance from p to a level's decoded surface (heights w x h in metres,
+ * samples at the file's spacing times `step`), the nearer of the two cell diagonals; 0
+ * outside the raster or over no-data. */
+double relief_surface_vertical_error(const struct relief_file *f, const float *heights, uint32_t w, uint32_t h,
+                                     uint32_t step, struct relief_vec3 p);
+
 /* Hysteresis: a patch splits when its screen error exceeds tau, and stays split until it
  * falls below RELIEF_LOD_MERGE * tau, so a still camera does not flicker. */
 #define RELIEF_LOD_MERGE 0.8f

@@ -8,7 +8,7 @@ layout(location = 1) in float in_height;
 layout(location = 0) out vec4 out_color;
 void main()
 {
-	if (pc.mode == 1u) {
+	if ((pc.mode & 1u) != 0u) {
 		out_color = vec4(0.05, 0.05, 0.05, 1.0);
 		return;
 	}

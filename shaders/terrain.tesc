@@ -34,11 +34,29 @@ float seg_pixels(vec3 p, float e)
 	return length(d);
 }
 
+vec3 sample_pos(Instance it, ivec2 m)
+{
+	int q = imageLoad(heights, ivec3(m + 1, it.layer)).x;
+	return vec3(it.origin.x + float(m.x) * it.step.x, it.origin.y - float(m.y) * it.step.y, it.q2 * float(q) - pc.cam_z);
+}
+
 float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
 {
+	uint fine = (pc.mode >> 1) & 3u;
+	if (fine == FINE_FULL)
+		return float(BLOCK_CELLS);
 	ivec2 m = ivec2((a + b) * 0.5 + 0.5);
-	int q = imageLoad(heights, ivec3(m + 1, it.layer)).x;
-	vec3 p = vec3(it.origin.x + float(m.x) * it.step.x, it.origin.y - float(m.y) * it.step.y, it.q2 * float(q) - pc.cam_z);
+	vec3 p = sample_pos(it, m);
+	if (fine == FINE_DISTANCE) {
+		// Baseline without error metrics: cells so that triangles are about target_px wide,
+		// rounded down to a power of two so that vertices stay on samples.
+		vec4 pa = pc.vp * vec4(sample_pos(it, ivec2(a)), 1.0), pb = pc.vp * vec4(sample_pos(it, ivec2(b)), 1.0);
+		if (pa.w <= 1e-6 || pb.w <= 1e-6)
+			return float(BLOCK_CELLS);
+		float len = length((pa.xy / pa.w - pb.xy / pb.w) * 0.5 * pc.viewport);
+		float f = clamp(len / pc.target_px, 1.0, float(BLOCK_CELLS));
+		return exp2(floor(log2(f)));
+	}
 	for (int d = 4; d >= 1; d--)
 		if (seg_pixels(p, eps[d - 1] + it.err) <= pc.tau)
 			return float(BLOCK_CELLS >> uint(d));

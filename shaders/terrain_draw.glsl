@@ -9,7 +9,12 @@ layout(push_constant) uniform DrawPush {
 	vec2 viewport;    // pixels
 	float tau;        // pixels
 	float cam_z;      // metres
-	uint P, blocks, per_patch, mode; // mode: 0 shaded, 1 wireframe overlay
+	uint P, blocks, per_patch, mode; // bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*)
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
+	float target_px;  // FINE_DISTANCE: wanted triangle edge length, pixels
 } pc;
+
+const uint FINE_ERRORS = 0u;   // block errors and tau (relief)
+const uint FINE_FULL = 1u;     // every block at full resolution (chunked LOD, full grid)
+const uint FINE_DISTANCE = 2u; // factor from the edge's projected length (no error metric)

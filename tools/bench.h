@@ -3,3 +3,4 @@
 
 int bench_codec(int argc, char **argv);
 int bench_decode(int argc, char **argv);
+int bench_lod(int argc, char **argv);

@@ -10,6 +10,7 @@ int cmd_bench(int argc, char **argv)
 	static const struct { const char *name, *what; int (*run)(int, char **); } modes[] = {
 		{ "codec", "compressed size and codec speed against the tolerance, with zstd baselines", bench_codec },
 		{ "decode", "GPU decoding through the patch cache against the CPU reference decoder", bench_decode },
+		{ "lod", "what accuracy costs in time: LOD against tau, with three baselines", bench_lod },
 	};
 	if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
 		FILE *f = argc < 2 ? stderr : stdout;

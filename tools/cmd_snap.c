@@ -147,7 +147,8 @@ int cmd_snap(int argc, char **argv)
 	for (uint64_t frame = 1; frame <= 4u * h->levels + 4u; frame++) {
 		if ((ret = relief_patch_cache_flush(cache, frame)) < 0 && ret != -ENOSPC)
 			break;
-		if ((ret = relief_terrain_draw(terrain, tv, &view, &target, frame, wire, &st)) < 0)
+		struct relief_draw_options dopt = { .wire = wire };
+		if ((ret = relief_terrain_draw(terrain, tv, &view, &target, frame, &dopt, &st)) < 0)
 			break;
 		frames++;
 		if (st.requests == 0)

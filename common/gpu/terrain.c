@@ -43,8 +43,9 @@ struct draw_push {
 	uint32_t P, blocks, per_patch, mode;
 	float sun[4];
 	float hrange[2];
+	float target_px;
 };
-_Static_assert(sizeof(struct draw_push) == 120, "draw push block");
+_Static_assert(sizeof(struct draw_push) == 124, "draw push block");
 
 struct patch_info {
 	float hmin, hmax, err, skirt;
@@ -354,8 +355,13 @@ static void barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags
 }
 
 int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
-                        struct relief_vk_target *target, uint64_t frame, bool wire, struct relief_terrain_stats *st)
+                        struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
+                        struct relief_terrain_stats *st)
 {
+	const struct relief_draw_options defaults = { .fine = RELIEF_FINE_ERRORS };
+	if (!opts)
+		opts = &defaults;
+	const bool wire = opts->wire;
 	const char *why;
 	if (relief_view_check(view, &why) < 0)
 		return -EINVAL;
@@ -372,7 +378,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
 		.cam_z = (float)o.z,
 		.kappa = (float)relief_view_kappa(view),
-		.tau = (float)view->tau,
+		.tau = (float)(opts->select_tau > 0 ? opts->select_tau : view->tau),
 		.frame = (uint32_t)frame,
 		.count = t->count,
 		.levels = f->hdr.levels,
@@ -391,6 +397,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.per_patch = t->per_patch,
 		.sun = { 0.45f, 0.3f, 0.84f, 0.0f },
 		.hrange = { (float)f->hdr.height_min, (float)f->hdr.height_max },
+		.target_px = opts->target_px > 0 ? opts->target_px : 1.0f,
 	};
 	memcpy(dp.vp, sp.vp, sizeof(dp.vp));
 	struct commands_push cp = { t->per_patch, t->per_draw, t->max_draws };
@@ -438,7 +445,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->stats_pool)
 		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
-		dp.mode = (uint32_t)pass;
+		dp.mode = (uint32_t)pass | ((uint32_t)opts->fine << 1);
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pass ? t->draw_wire : t->draw_fill);
 		vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(dp), &dp);
 		if (vk->has.draw_indirect_count)

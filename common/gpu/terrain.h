@@ -36,10 +36,26 @@ void relief_terrain_destroy(struct relief_terrain *t);
 int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_view **out);
 void relief_terrain_view_destroy(struct relief_terrain_view *v);
 
+/* How blocks are tessellated: relief's rule, or the baselines of `relief bench lod`. */
+enum relief_fine_lod {
+	RELIEF_FINE_ERRORS = 0,   /* block errors against tau (the method) */
+	RELIEF_FINE_FULL = 1,     /* every block at full resolution: chunked LOD */
+	RELIEF_FINE_DISTANCE = 2, /* factor from projected edge length, no error metric */
+};
+
+struct relief_draw_options {
+	bool wire;                    /* overlay the wireframe */
+	enum relief_fine_lod fine;
+	float target_px;              /* RELIEF_FINE_DISTANCE: wanted triangle width, pixels */
+	double select_tau;            /* > 0: tau for the coarse selection instead of view->tau */
+};
+
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then
- * passes the view's requests for missing patches to the cache (coarse first). */
+ * passes the view's requests for missing patches to the cache (coarse first). `opts` may be
+ * NULL (relief's method, no wireframe). */
 int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
-                        struct relief_vk_target *target, uint64_t frame, bool wire, struct relief_terrain_stats *st);
+                        struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
+                        struct relief_terrain_stats *st);
 
 /* The last frame's drawn patch ids (unordered), for tests; returns the count. */
 uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

@@ -106,5 +106,20 @@ expect_text reliefd-terrain-missing-named "none.relief"
 check bench-decode 0 "$relief" bench decode "$tmp/lux.relief" --runs 1 --json
 expect_text bench-decode-fields '"file":"lux.relief","patches":'
 expect_text bench-decode-ratio '"ratio_gpu_over_cpu":'
+# relief snap: a real frame, its depth file, and refused cameras
+check snap 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/snap.png" --depth "$tmp/snap.f32" --wire
+expect_text snap-summary "patches in"
+[ "$(stat -c %s "$tmp/snap.f32")" -eq $((96 * 54 * 4)) ] || { echo "FAIL depth size"; fails=$((fails + 1)); }
+# the top row looks at the sky: +infinity (0x7f800000, little-endian)
+[ "$(head -c 4 "$tmp/snap.f32" | od -An -tx1 | tr -d ' ')" = "0000807f" ] || { echo "FAIL sky depth is not +inf"; fails=$((fails + 1)); }
+check snap-nan 2 "$relief" snap "$tmp/ps.relief" --camera nan,0,100 --look 1,1,0 -o "$tmp/x.png"
+expect_text snap-nan-named "--camera"
+check snap-zero-size 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --size 0x10 -o "$tmp/x.png"
+expect_text snap-zero-size-named "--size"
+check snap-same-point 2 "$relief" snap "$tmp/ps.relief" --camera 5,5,100 --look 5,5,100 -o "$tmp/x.png"
+expect_text snap-same-point-named "look point"
+check snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
+expect_text snap-bad-tau-named "tau"
+check snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
 echo "cli: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -116,7 +116,7 @@ static void test_gpu_matches_cpu(void **state)
 		};
 		struct relief_terrain_stats st;
 		/* The GPU view starts with nothing split, like prev[] here. */
-		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 2 + p, false, &st), 0);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 2 + p, NULL, &st), 0);
 		uint32_t ng = relief_terrain_view_drawn(s.view, gpu, n);
 		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
 		uint32_t k = 0;
@@ -143,53 +143,12 @@ static void render(struct scene *s, struct relief_view *v, float *depth, struct 
 {
 	for (uint64_t frame = 100; frame < 140; frame++) {
 		assert_int_equal(relief_patch_cache_flush(s->cache, frame), 0);
-		assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame, false, st), 0);
+		assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame, NULL, st), 0);
 		if (st->requests == 0)
 			break;
 	}
 	assert_int_equal(st->requests, 0);
 	memcpy(depth, s->target.depth_readback.map, sizeof(float) * v->width * v->height);
-}
-
-/* World point seen at pixel (x, y) with Vulkan depth d. */
-static struct relief_vec3 unproject(const struct relief_view *v, int x, int y, double d)
-{
-	double D = v->znear * v->zfar / (v->zfar - d * (v->zfar - v->znear)); /* along the view axis */
-	struct relief_vec3 f, r, u;
-	relief_vec3_normalize(relief_vec3_sub(v->target, v->eye), &f);
-	relief_vec3_normalize(relief_vec3_cross(f, (struct relief_vec3){ 0, 0, 1 }), &r);
-	u = relief_vec3_cross(r, f);
-	double t = tan(v->fovy / 2), aspect = (double)v->width / v->height;
-	double nx = (2.0 * (x + 0.5) / v->width - 1.0) * t * aspect, ny = (1.0 - 2.0 * (y + 0.5) / v->height) * t;
-	return (struct relief_vec3){ v->eye.x + D * (f.x + nx * r.x + ny * u.x), v->eye.y + D * (f.y + nx * r.y + ny * u.y),
-	                             v->eye.z + D * (f.z + nx * r.z + ny * u.z) };
-}
-
-/* Vertical distance from p to the finest decoded surface (nearer of the two diagonals). */
-static double vertical_error(const struct relief_file *f, const float *hf, uint32_t w, uint32_t h, struct relief_vec3 p)
-{
-	double gx = (p.x - f->hdr.origin_x) / f->hdr.spacing_x, gy = (f->hdr.origin_y - p.y) / f->hdr.spacing_y;
-	if (gx < 0 || gy < 0 || gx > w - 1 || gy > h - 1)
-		return 0.0;
-	uint32_t i = gx >= w - 1 ? w - 2 : (uint32_t)gx, j = gy >= h - 1 ? h - 2 : (uint32_t)gy;
-	double u = gx - i, t = gy - j;
-	double a = hf[j * w + i], b = hf[j * w + i + 1], c = hf[(j + 1) * w + i], d = hf[(j + 1) * w + i + 1];
-	double d0 = u >= t ? a + u * (b - a) + t * (d - b) : a + t * (c - a) + u * (d - c);
-	double d1 = u + t <= 1 ? a + u * (b - a) + t * (c - a) : d + (1 - u) * (c - d) + (1 - t) * (b - d);
-	return fmin(fabs(p.z - d0), fabs(p.z - d1));
-}
-
-static double screen_length(const struct relief_view *v, struct relief_vec3 p, double e)
-{
-	struct relief_mat4 view, proj, vp;
-	relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &view);
-	proj = relief_mat4_perspective(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
-	vp = relief_mat4_mul(&proj, &view);
-	double w0, w1;
-	struct relief_vec3 a = relief_mat4_transform(&vp, p, &w0);
-	struct relief_vec3 b = relief_mat4_transform(&vp, (struct relief_vec3){ p.x, p.y, p.z + e }, &w1);
-	double dx = (a.x / w0 - b.x / w1) * 0.5 * v->width, dy = (a.y / w0 - b.y / w1) * 0.5 * v->height;
-	return sqrt(dx * dx + dy * dy);
 }
 
 /* Against a full-resolution render of the same camera: no background inside the terrain's
@@ -238,9 +197,9 @@ static void test_watertight_and_error_bound(void **state)
 					if (interior && d >= 1.0f)
 						holes++;
 					if (d < 1.0f && ref[y * W + x] < 1.0f) {
-						struct relief_vec3 pt = unproject(&v, x, y, d);
-						double e = vertical_error(s.f, finest, fw, fh, pt);
-						double px = screen_length(&v, pt, e);
+						struct relief_vec3 pt = relief_view_unproject(&v, x, y, d);
+						double e = fabs(relief_surface_vertical_error(s.f, finest, fw, fh, 1, pt));
+						double px = relief_view_segment_px(&v, pt, e);
 						if (px > worst) {
 							worst = px;
 							worst_err = e;
