@@ -4,10 +4,12 @@
 #include "terrain_draw.glsl"
 // Fine LOD (design notes §4): each edge of a tessellation block takes the coarsest
 // simplification d (factor 16 / 2^d) whose error segment, eps_d of the blocks on both sides
-// plus Err(P), centred on the edge's midpoint and projected, is at most tau pixels long.
-// Both blocks of an inner edge compute it from the same numbers, so the patch is seamless
-// inside. The inner factor is the largest of the edge factors (the paper takes the
-// smallest; the largest keeps the bound where the block is closest to the camera).
+// plus Err(P), projects to at most tau pixels. The paper measures the segment at the edge's
+// midpoint only; here it is measured at both endpoints too (the largest projection wins),
+// because an edge whose end is nearer the camera than its middle broke the bound in the
+// benchmark. Both blocks of an inner edge compute it from the same numbers, so the patch is
+// seamless inside. The inner factor is the largest of the edge factors and of the level the
+// block's point nearest the camera needs (the paper takes the smallest edge factor).
 // A skirt quad takes its block's factor along the patch border, 1 across.
 layout(vertices = 4) out;
 layout(location = 0) in flat uint in_slot[];
@@ -40,6 +42,19 @@ vec3 sample_pos(Instance it, ivec2 m)
 	return vec3(it.origin.x + float(m.x) * it.step.x, it.origin.y - float(m.y) * it.step.y, it.q2 * float(q) - pc.cam_z);
 }
 
+// The coarsest factor whose error segment, measured at each of `n` points, is within tau.
+float error_factor(Instance it, vec3 p[3], int n, vec4 eps)
+{
+	for (int d = 4; d >= 1; d--) {
+		float e = eps[d - 1] + it.err, worst = 0.0;
+		for (int i = 0; i < n; i++)
+			worst = max(worst, seg_pixels(p[i], e));
+		if (worst <= pc.tau)
+			return float(BLOCK_CELLS >> uint(d));
+	}
+	return float(BLOCK_CELLS);
+}
+
 float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
 {
 	uint fine = (pc.mode >> 1) & 3u;
@@ -57,10 +72,21 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
 		float f = clamp(len / pc.target_px, 1.0, float(BLOCK_CELLS));
 		return exp2(floor(log2(f)));
 	}
-	for (int d = 4; d >= 1; d--)
-		if (seg_pixels(p, eps[d - 1] + it.err) <= pc.tau)
-			return float(BLOCK_CELLS >> uint(d));
-	return float(BLOCK_CELLS);
+	vec3 pts[3] = vec3[3](sample_pos(it, ivec2(a + 0.5)), p, sample_pos(it, ivec2(b + 0.5)));
+	return error_factor(it, pts, 3, eps);
+}
+
+// The level needed at the block's sample nearest the camera (which sits at the origin).
+float nearest_factor(Instance it, vec2 lo, vec4 eps)
+{
+	uint fine = (pc.mode >> 1) & 3u;
+	if (fine != FINE_ERRORS)
+		return 1.0;
+	vec2 cam = vec2(-it.origin.x / it.step.x, it.origin.y / it.step.y); // camera in patch samples
+	ivec2 m = ivec2(clamp(cam, lo, lo + float(BLOCK_CELLS)) + 0.5);
+	vec3 pts[3];
+	pts[0] = sample_pos(it, m);
+	return error_factor(it, pts, 1, eps);
 }
 
 void main()
@@ -87,8 +113,9 @@ void main()
 		gl_TessLevelOuter[1] = f1;
 		gl_TessLevelOuter[2] = f2;
 		gl_TessLevelOuter[3] = f3;
-		gl_TessLevelInner[0] = max(f1, f3);
-		gl_TessLevelInner[1] = max(f0, f2);
+		float fn = nearest_factor(it, vec2(bl) * float(BLOCK_CELLS), e);
+		gl_TessLevelInner[0] = max(max(f1, f3), fn);
+		gl_TessLevelInner[1] = max(max(f0, f2), fn);
 	} else {
 		uint j = in_kind[0] - 1u, side = j / pc.blocks;
 		int i = int(j % pc.blocks);
