@@ -121,5 +121,10 @@ expect_text snap-same-point-named "look point"
 check snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 check snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
+check bench-lod 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --size 64x36 --taus 1 --targets 4 --json
+n=$(grep -c '"method":' <<<"$LAST_OUT")
+[ "$n" -eq 4 ] || { echo "FAIL bench lod records: $n"; fails=$((fails + 1)); }
+expect_text bench-lod-fields '"method":"relief","tau_px":1,"gpu_ms_median":'
+expect_text bench-lod-error-fields '"max_err_px":'
 echo "cli: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]
