@@ -1,11 +1,13 @@
 #version 450
 // Normal map of one decoded patch: central differences of its quantised heights, using the
 // ring for the border samples so that neighbouring patches get the same normal on their
-// shared edge. Output P x P, xyz of the unit normal (x east, y north, z up) as snorm8.
+// shared edge. Output P x P, xyz of the unit normal (x east, y north, z up) as snorm8, and
+// in w the sample's validity (1 valid, -1 no-data) so that the renderer can hide holes.
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 1, rgba8_snorm) uniform writeonly image2DArray normals;
+layout(std430, binding = 2) readonly buffer Staging { int data[]; } st;
 
 layout(push_constant) uniform Push {
 	int layer;
@@ -13,6 +15,7 @@ layout(push_constant) uniform Push {
 	float q2;      // metres per quantum at the patch's level (2 delta_l)
 	float inv_2sx; // 1 / (2 x spacing) at the patch's level, 1/m
 	float inv_2sy;
+	uint mask;     // staging int offset of the patch's validity bytes, or ~0u: all valid
 } pc;
 
 void main()
@@ -28,5 +31,10 @@ void main()
 	float dhdx = float(e - w) * pc.q2 * pc.inv_2sx;
 	float dhdy = float(no - so) * pc.q2 * pc.inv_2sy; // north is up in world y
 	vec3 n = normalize(vec3(-dhdx, -dhdy, 1.0));
-	imageStore(normals, ivec3(p, pc.layer), vec4(n, 0.0));
+	float valid = 1.0;
+	if (pc.mask != ~0u) {
+		uint i = uint(p.y * pc.P + p.x);
+		valid = ((uint(st.data[pc.mask + i / 4u]) >> (8u * (i % 4u))) & 0xffu) != 0u ? 1.0 : -1.0;
+	}
+	imageStore(normals, ivec3(p, pc.layer), vec4(n, valid));
 }

@@ -5,9 +5,16 @@
 // One sun, a height ramp (water-level green to snow) and rock on steep slopes.
 layout(location = 0) in vec3 in_normal;
 layout(location = 1) in float in_height;
+layout(location = 2) in vec2 in_s;
+layout(location = 3) flat in int in_layer;
 layout(location = 0) out vec4 out_color;
 void main()
 {
+	// No-data is a hole, never a made-up height: the validity of the nearest sample, per
+	// fragment (tessellated vertices can be far apart where the terrain is smooth).
+	ivec2 si = clamp(ivec2(in_s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
+	if (imageLoad(normals, ivec3(si, in_layer)).w < 0.0)
+		discard;
 	if ((pc.mode & 1u) != 0u) {
 		out_color = vec4(0.05, 0.05, 0.05, 1.0);
 		return;

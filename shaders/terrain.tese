@@ -10,6 +10,8 @@ layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 0) out vec3 out_normal;
 layout(location = 1) out float out_height;
+layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
+layout(location = 3) flat out int out_layer;
 void main()
 {
 	Instance it = inst[in_slot[0]];
@@ -19,6 +21,8 @@ void main()
 	ivec2 si = clamp(ivec2(s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
 	float h = it.q2 * float(imageLoad(heights, ivec3(si + 1, it.layer)).x);
 	out_normal = imageLoad(normals, ivec3(si, it.layer)).xyz;
+	out_s = vec2(si);
+	out_layer = it.layer;
 	out_height = h;
 	vec3 p = vec3(it.origin.x + float(si.x) * it.step.x, it.origin.y - float(si.y) * it.step.y,
 	              h - pc.cam_z - down * it.skirt);

@@ -30,6 +30,7 @@ struct decode_push {
 struct normals_push {
 	int32_t layer, P;
 	float q2, inv_2sx, inv_2sy;
+	uint32_t mask;
 };
 
 struct request {
@@ -59,7 +60,8 @@ struct relief_patch_cache {
 	struct relief_patch_cache_options o;
 	uint32_t P, E, count;
 	size_t errors_per_layer;         /* floats */
-	size_t slot_ints;                /* labels + values + block errors */
+	size_t slot_ints;                /* labels, values, mask, block errors */
+	size_t mask_ints;                /* P^2 validity bytes, four per int */
 
 	/* GPU objects */
 	struct relief_vk_image heights, normals;
@@ -380,7 +382,8 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	c->E = f->layout.geom.E;
 	c->count = f->hdr.patch_count;
 	c->errors_per_layer = relief_block_errors_per_patch(c->P);
-	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->errors_per_layer;
+	c->mask_ints = ((size_t)c->P * c->P + 3) / 4;
+	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->mask_ints + c->errors_per_layer;
 
 	int ret = -ENOMEM;
 	c->state = calloc(c->count, 1);
@@ -743,7 +746,12 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 			.q2 = (float)(2.0 * lay->delta[l]),
 			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
 			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
+			.mask = UINT32_MAX,
 		};
+		struct relief_patch_record rec;
+		relief_file_record(c->file, id, &rec);
+		if (rec.flags & RELIEF_PATCH_MASKED)
+			push.mask = (uint32_t)(b->jobs[i].slot * c->slot_ints + lay->geom.n_labels + (size_t)c->E * c->E);
 		vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
 		vkCmdDispatch(cmd, groups_p, groups_p, 1);
 	}
@@ -980,6 +988,15 @@ static int fill_slot(struct relief_patch_cache *c, struct relief_decoder *dec, i
 		for (uint32_t i = 0; i < g->n_labels; i++)
 			s[i] = dec->labels[i];
 		memcpy(values, dec->residuals, sizeof(int32_t) * g->n_residuals);
+	}
+	struct relief_patch_record rec;
+	relief_file_record(c->file, id, &rec);
+	if (rec.flags & RELIEF_PATCH_MASKED) {
+		/* Validity bytes, four per int, read by the normals pass into the normals' w. */
+		uint8_t *mask = (uint8_t *)(values + (size_t)g->E * g->E);
+		memset(mask, 0, c->mask_ints * 4);
+		if ((ret = relief_file_mask(c->file, id, mask)) < 0)
+			return ret;
 	}
 	relief_file_block_errors(c->file, id, (float *)(s + c->slot_ints - c->errors_per_layer));
 	return 0;

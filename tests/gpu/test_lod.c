@@ -257,6 +257,58 @@ static void test_huge_coordinates(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* No-data stays a hole: looking down on Luxembourg (54 % valid, no-data outside the
+ * border), no pixel shows terrain over a cell whose four samples are all no-data, and the
+ * valid area is drawn. */
+static void test_nodata_hidden(void **state)
+{
+	enum { W = 256, H = 256 };
+	struct scene s;
+	scene_open(&s, DEM_LUX, 1.0, W, H);
+	const struct relief_header *hd = &s.f->hdr;
+	double cx = hd->origin_x + 0.5 * hd->spacing_x * (hd->width - 1);
+	double cy = hd->origin_y - 0.5 * hd->spacing_y * (hd->height - 1);
+	struct relief_view v = {
+		.eye = { cx, cy - 100, 120000 }, .target = { cx, cy, 0 },
+		.fovy = 40 * M_PI / 180, .width = W, .height = H, .znear = 1000, .zfar = 4e5, .tau = 1,
+	};
+	float *depth = malloc(sizeof(float) * W * H);
+	struct relief_terrain_stats st;
+	render(&s, &v, depth, &st);
+	uint32_t w, h;
+	relief_level_extent(hd, hd->levels - 1, &w, &h);
+	float *finest = malloc(sizeof(float) * w * h);
+	uint8_t *valid = malloc((size_t)w * h);
+	assert_int_equal(relief_decode_level(s.f, hd->levels - 1, 0, finest, valid), 0);
+	uint32_t over_hole = 0, over_data = 0, data_pixels = 0;
+	for (int y = 0; y < H; y++)
+		for (int x = 0; x < W; x++) {
+			/* Where the pixel's ray meets the plane of the valid heights' mean (~300 m). */
+			struct relief_vec3 p = relief_view_unproject(&v, x, y, depth[y * W + x] < 1.0f ? depth[y * W + x] : 0.999);
+			double gx = (p.x - hd->origin_x) / hd->spacing_x, gy = (hd->origin_y - p.y) / hd->spacing_y;
+			if (gx < 0 || gy < 0 || gx >= w - 1 || gy >= h - 1)
+				continue;
+			uint32_t i = (uint32_t)gx, j = (uint32_t)gy;
+			int n = valid[j * w + i] + valid[j * w + i + 1] + valid[(j + 1) * w + i] + valid[(j + 1) * w + i + 1];
+			bool terrain = depth[y * W + x] < 1.0f;
+			if (n == 0 && terrain)
+				over_hole++;
+			if (n == 4) {
+				data_pixels++;
+				over_data += terrain;
+			}
+		}
+	print_message("Luxembourg from above: %u terrain pixels over no-data, %u of %u data pixels drawn\n", over_hole,
+	              over_data, data_pixels);
+	assert_int_equal(over_hole, 0);
+	assert_true(data_pixels > 1000 && over_data == data_pixels);
+	free(depth);
+	free(finest);
+	free(valid);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 static void test_view_check(void **state)
 {
 	struct relief_view good = {
@@ -293,6 +345,7 @@ int main(void)
 		cmocka_unit_test(test_gpu_matches_cpu),
 		cmocka_unit_test(test_watertight_and_error_bound),
 		cmocka_unit_test(test_huge_coordinates),
+		cmocka_unit_test(test_nodata_hidden),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -123,6 +123,11 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol)
 			}
 			relief_file_block_errors(f, id, cpu_e);
 			assert_memory_equal(gpu_e, cpu_e, sizeof(float) * nb);
+			uint8_t *mask = malloc((size_t)P * P);
+			assert_int_equal(relief_file_mask(f, id, mask), 0);
+			for (size_t k = 0; k < (size_t)P * P; k++)
+				assert_int_equal(gpu_n[k * 4 + 3], mask[k] ? 127 : -127); /* validity in w */
+			free(mask);
 			for (uint32_t y = 0; y < P; y++)
 				for (uint32_t x = 0; x < P; x++) {
 					double n[3];
