@@ -148,7 +148,7 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 {
 	struct relief_view_origin o;
 	relief_view_origin(f, v, &o);
-	const float kappa = (float)relief_view_kappa(v), tau = (float)v->tau;
+	const float kappa = (float)relief_view_kappa(v), tau = (float)(v->tau * RELIEF_LOD_COARSE_SHARE);
 	const struct relief_layout *lay = &f->layout;
 	float vp[16];
 	relief_view_matrix(v, vp);

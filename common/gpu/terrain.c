@@ -378,7 +378,10 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
 		.cam_z = (float)o.z,
 		.kappa = (float)relief_view_kappa(view),
-		.tau = (float)(opts->select_tau > 0 ? opts->select_tau : view->tau),
+		/* relief's own method leaves part of tau to the tessellator (lod.h); the baselines'
+		 * selections use the whole value they are given. */
+		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : view->tau) *
+		               (opts->fine == RELIEF_FINE_ERRORS ? RELIEF_LOD_COARSE_SHARE : 1.0)),
 		.frame = (uint32_t)frame,
 		.count = t->count,
 		.levels = f->hdr.levels,
