@@ -54,17 +54,10 @@ int relief_grid_create(struct relief_vk *vk, struct relief_vk_target *target, st
 	};
 	if ((ret = relief_vk_tess_pipeline_create(vk, &desc, &g->pipeline)) < 0)
 		goto fail;
-	if (vk->has.pipeline_statistics) {
-		VkQueryPoolCreateInfo qi = {
-			.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-			.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS,
-			.queryCount = 1,
-			.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_TESSELLATION_EVALUATION_SHADER_INVOCATIONS_BIT,
-		};
-		ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &qi, NULL, &g->stats_pool), "vkCreateQueryPool");
-		if (ret < 0)
-			goto fail;
-	}
+	if (vk->has.pipeline_statistics &&
+	    (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_TESSELLATION_EVALUATION_SHADER_INVOCATIONS_BIT,
+	                                       1, &g->stats_pool)) < 0)
+		goto fail;
 	if ((ret = relief_vk_timer_init(vk, &g->timer, 2)) < 0 && ret != -ENOTSUP)
 		goto fail;
 	*out = g;

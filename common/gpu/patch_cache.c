@@ -14,6 +14,7 @@
 
 #include "decode.h"
 #include "patch_cache.h"
+#include "pipeline.h"
 
 #include "patch_decode.comp.spv.h"
 #include "patch_normals.comp.spv.h"
@@ -251,28 +252,6 @@ static int create_descriptors(struct relief_patch_cache *c)
 	return 0;
 }
 
-static int create_pipeline(struct relief_patch_cache *c, const uint32_t *code, size_t size, VkPipeline *out)
-{
-	VkShaderModule module;
-	int ret = relief_vk_shader_module(c->vk, code, size, &module);
-	if (ret < 0)
-		return ret;
-	VkComputePipelineCreateInfo info = {
-		.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-		.stage = {
-			.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-			.stage = VK_SHADER_STAGE_COMPUTE_BIT,
-			.module = module,
-			.pName = "main",
-		},
-		.layout = c->pipeline_layout,
-	};
-	ret = relief_vk_check(c->vk, vkCreateComputePipelines(c->vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
-	                      "vkCreateComputePipelines");
-	vkDestroyShaderModule(c->vk->device, module, NULL);
-	return ret;
-}
-
 static int create_pipelines(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
@@ -288,9 +267,11 @@ static int create_pipelines(struct relief_patch_cache *c)
 	                          "vkCreatePipelineLayout");
 	if (ret < 0)
 		return ret;
-	if ((ret = create_pipeline(c, patch_decode_comp_spv, sizeof(patch_decode_comp_spv), &c->decode_pipeline)) < 0)
+	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_decode_comp_spv),
+	                                             &c->decode_pipeline)) < 0)
 		return ret;
-	return create_pipeline(c, patch_normals_comp_spv, sizeof(patch_normals_comp_spv), &c->normals_pipeline);
+	return relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_normals_comp_spv),
+	                                         &c->normals_pipeline);
 }
 
 /* Images start in GENERAL and stay there (storage writes, sampling, copies). */
@@ -330,15 +311,8 @@ static int create_batches(struct relief_patch_cache *c)
 	int ret = relief_vk_check(vk, vkCreateCommandPool(vk->device, &pi, NULL, &c->cmd_pool), "vkCreateCommandPool");
 	if (ret < 0)
 		return ret;
-	if (vk->timestamp_valid_bits) {
-		VkQueryPoolCreateInfo qi = {
-			.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-			.queryType = VK_QUERY_TYPE_TIMESTAMP,
-			.queryCount = 2 * IN_FLIGHT,
-		};
-		if ((ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &qi, NULL, &c->timer), "vkCreateQueryPool")) < 0)
-			return ret;
-	}
+	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 2 * IN_FLIGHT, &c->timer)) < 0)
+		return ret;
 	for (int i = 0; i < IN_FLIGHT; i++) {
 		VkCommandBufferAllocateInfo ai = {
 			.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,

@@ -114,3 +114,34 @@ uint32_t relief_vk_quads_per_draw(uint32_t factor)
 	uint32_t n = RELIEF_VK_MAX_TESS_VERTICES_PER_DRAW / per_patch;
 	return n ? n : 1;
 }
+
+int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
+                                      VkPipeline *out)
+{
+	VkShaderModule m;
+	int ret = relief_vk_shader_module(vk, code.code, code.size, &m);
+	if (ret < 0)
+		return ret;
+	VkComputePipelineCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+		.stage = { .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+		           .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main" },
+		.layout = layout,
+	};
+	ret = relief_vk_check(vk, vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
+	                      "vkCreateComputePipelines");
+	vkDestroyShaderModule(vk->device, m, NULL);
+	return ret;
+}
+
+int relief_vk_query_pool_create(struct relief_vk *vk, VkQueryPipelineStatisticFlags statistics, uint32_t count,
+                                VkQueryPool *out)
+{
+	VkQueryPoolCreateInfo info = {
+		.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
+		.queryType = statistics ? VK_QUERY_TYPE_PIPELINE_STATISTICS : VK_QUERY_TYPE_TIMESTAMP,
+		.queryCount = count,
+		.pipelineStatistics = statistics,
+	};
+	return relief_vk_check(vk, vkCreateQueryPool(vk->device, &info, NULL, out), "vkCreateQueryPool");
+}

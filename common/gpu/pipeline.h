@@ -22,6 +22,13 @@ struct relief_vk_tess_pipeline_desc {
  * kept (terrain may be seen from below when the camera is inside it). */
 int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_tess_pipeline_desc *d,
                                    VkPipeline *out);
+/* A compute pipeline from SPIR-V (entry point main). */
+int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
+                                      VkPipeline *out);
+/* A query pool: `count` timestamps (statistics == 0) or one pipeline-statistics query
+ * counting `statistics`. */
+int relief_vk_query_pool_create(struct relief_vk *vk, VkQueryPipelineStatisticFlags statistics, uint32_t count,
+                                VkQueryPool *out);
 /* A pipeline layout with one push-constant range of `push_size` bytes visible to all
  * graphics stages, and up to one descriptor set layout (may be VK_NULL_HANDLE). */
 int relief_vk_pipeline_layout_create(struct relief_vk *vk, uint32_t push_size, VkDescriptorSetLayout set,

@@ -84,25 +84,6 @@ struct relief_terrain_view {
 	uint32_t last_drawn;
 };
 
-static int compute_pipeline(struct relief_vk *vk, VkPipelineLayout layout, const uint32_t *code, size_t size,
-                            VkPipeline *out)
-{
-	VkShaderModule m;
-	int ret = relief_vk_shader_module(vk, code, size, &m);
-	if (ret < 0)
-		return ret;
-	VkComputePipelineCreateInfo info = {
-		.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-		.stage = { .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-		           .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main" },
-		.layout = layout,
-	};
-	ret = relief_vk_check(vk, vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
-	                      "vkCreateComputePipelines");
-	vkDestroyShaderModule(vk->device, m, NULL);
-	return ret;
-}
-
 static int layout_with_push(struct relief_vk *vk, VkDescriptorSetLayout set, VkShaderStageFlags stages, uint32_t size,
                             VkPipelineLayout *out)
 {
@@ -183,9 +164,9 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	                            &t->commands_layout)) < 0 ||
 	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_ALL_GRAPHICS, sizeof(struct draw_push),
 	                            &t->draw_layout)) < 0 ||
-	    (ret = compute_pipeline(vk, t->select_layout, lod_select_comp_spv, sizeof(lod_select_comp_spv), &t->select)) < 0 ||
-	    (ret = compute_pipeline(vk, t->commands_layout, lod_commands_comp_spv, sizeof(lod_commands_comp_spv),
-	                            &t->commands)) < 0)
+	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &t->select)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, t->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv),
+	                                             &t->commands)) < 0)
 		goto fail;
 	struct relief_vk_tess_pipeline_desc d = {
 		.vert = RELIEF_SPIRV(terrain_vert_spv),
@@ -203,25 +184,12 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_wire)) < 0)
 			goto fail;
 	}
-	if (vk->has.pipeline_statistics) {
-		VkQueryPoolCreateInfo qi = {
-			.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-			.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS,
-			.queryCount = 1,
-			.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT,
-		};
-		if ((ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &qi, NULL, &t->stats_pool), "vkCreateQueryPool")) < 0)
-			goto fail;
-	}
-	if (vk->timestamp_valid_bits) {
-		VkQueryPoolCreateInfo qi = {
-			.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-			.queryType = VK_QUERY_TYPE_TIMESTAMP,
-			.queryCount = 3,
-		};
-		if ((ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &qi, NULL, &t->timer), "vkCreateQueryPool")) < 0)
-			goto fail;
-	}
+	if (vk->has.pipeline_statistics &&
+	    (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT, 1,
+	                                       &t->stats_pool)) < 0)
+		goto fail;
+	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 3, &t->timer)) < 0)
+		goto fail;
 	*out = t;
 	return 0;
 fail:

@@ -2,6 +2,7 @@
 #include <errno.h>
 #include <string.h>
 
+#include "pipeline.h"
 #include "vk.h"
 
 int relief_vk_cmd_begin(struct relief_vk *vk, VkCommandBuffer *cmd)
@@ -54,12 +55,7 @@ int relief_vk_timer_init(struct relief_vk *vk, struct relief_vk_timer *t, uint32
 	memset(t, 0, sizeof(*t));
 	if (vk->timestamp_valid_bits == 0)
 		return -ENOTSUP;
-	VkQueryPoolCreateInfo info = {
-		.sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
-		.queryType = VK_QUERY_TYPE_TIMESTAMP,
-		.queryCount = count,
-	};
-	int ret = relief_vk_check(vk, vkCreateQueryPool(vk->device, &info, NULL, &t->pool), "vkCreateQueryPool");
+	int ret = relief_vk_query_pool_create(vk, 0, count, &t->pool);
 	if (ret == 0)
 		t->count = count;
 	return ret;

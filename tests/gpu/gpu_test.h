@@ -40,3 +40,20 @@ static inline void gpu_test_assert_clean(struct relief_vk *vk)
 {
 	assert_int_equal(atomic_load(&vk->validation_messages), 0);
 }
+
+/* A cmocka group fixture sharing one context: the group fails if any validation message
+ * was raised during its tests. */
+static struct relief_vk *gpu_test_vk;
+
+static inline int gpu_test_group_setup(void **state)
+{
+	gpu_test_vk = gpu_test_context();
+	return 0;
+}
+
+static inline int gpu_test_group_teardown(void **state)
+{
+	unsigned messages = atomic_load(&gpu_test_vk->validation_messages);
+	relief_vk_destroy(gpu_test_vk);
+	return messages ? -1 : 0;
+}

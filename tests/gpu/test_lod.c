@@ -15,20 +15,7 @@
 #include "patch_cache.h"
 #include "terrain.h"
 
-static struct relief_vk *vk;
-
-static int setup(void **state)
-{
-	vk = gpu_test_context();
-	return 0;
-}
-
-static int teardown(void **state)
-{
-	unsigned messages = atomic_load(&vk->validation_messages);
-	relief_vk_destroy(vk);
-	return messages ? -1 : 0;
-}
+#define vk gpu_test_vk
 
 struct scene {
 	uint8_t *img;
@@ -347,5 +334,5 @@ int main(void)
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_nodata_hidden),
 	};
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }

@@ -14,20 +14,7 @@
 #include "pack.h"
 #include "patch_cache.h"
 
-static struct relief_vk *vk;
-
-static int setup(void **state)
-{
-	vk = gpu_test_context();
-	return 0;
-}
-
-static int teardown(void **state)
-{
-	unsigned messages = atomic_load(&vk->validation_messages);
-	relief_vk_destroy(vk);
-	return messages ? -1 : 0;
-}
+#define vk gpu_test_vk
 
 static void pack_dem(enum test_dem d, uint32_t patch, double tol, uint8_t **img, size_t *size)
 {
@@ -389,5 +376,5 @@ int main(void)
 		cmocka_unit_test(test_corrupt_patch),
 		cmocka_unit_test(test_truncated_at_run_time),
 	};
-	return cmocka_run_group_tests(tests, setup, teardown);
+	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }
