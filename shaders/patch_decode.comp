@@ -18,7 +18,8 @@ layout(binding = 0, r32i) uniform iimage2DArray heights;
 layout(std430, binding = 2) readonly buffer Staging { int data[]; } st;
 layout(std430, binding = 3) buffer Flags { uint flags[]; } fl;
 
-layout(push_constant) uniform Push {
+// One dispatch decodes a whole batch: workgroup z is the job (patch) index.
+struct Job {
 	int child_layer;
 	int parent_layer;
 	int quadrant;   // bit 0 east, bit 1 south
@@ -27,7 +28,12 @@ layout(push_constant) uniform Push {
 	uint flag;      // index into flags
 	int mode;       // 0 decode from parent, 1 copy values (root)
 	int P;          // samples per side
-} pc;
+	uint mask;      // normals pass: staging offset of the validity bytes, ~0u: all valid
+	float q2, inv_2sx, inv_2sy; // normals pass
+};
+layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
+layout(push_constant) uniform Push { uint first_job; } push;
+Job pc;
 
 const int Q_MAX = 1 << 26;
 
@@ -66,6 +72,7 @@ int residual(uint index)
 
 void main()
 {
+	pc = jobs[push.first_job + gl_WorkGroupID.z];
 	int E = pc.P + 2, quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
 	ivec2 g = ivec2(gl_GlobalInvocationID.xy);
 	if (g.x >= quads || g.y >= quads)

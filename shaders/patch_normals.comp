@@ -9,17 +9,26 @@ layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 1, rgba8_snorm) uniform writeonly image2DArray normals;
 layout(std430, binding = 2) readonly buffer Staging { int data[]; } st;
 
-layout(push_constant) uniform Push {
-	int layer;
+// One dispatch per batch: workgroup z is the job; the job record is shared with
+// patch_decode.comp.
+struct Job {
+	int layer;     // the patch's layer (child_layer in the decode pass)
+	int parent_layer, quadrant, ratio;
+	uint slot, flag;
+	int mode;
 	int P;
+	uint mask;     // staging int offset of the patch's validity bytes, or ~0u: all valid
 	float q2;      // metres per quantum at the patch's level (2 delta_l)
 	float inv_2sx; // 1 / (2 x spacing) at the patch's level, 1/m
 	float inv_2sy;
-	uint mask;     // staging int offset of the patch's validity bytes, or ~0u: all valid
-} pc;
+};
+layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
+layout(push_constant) uniform Push { uint first_job; } push;
+Job pc;
 
 void main()
 {
+	pc = jobs[push.first_job + gl_WorkGroupID.z];
 	ivec2 p = ivec2(gl_GlobalInvocationID.xy);
 	if (p.x >= pc.P || p.y >= pc.P)
 		return;

@@ -22,17 +22,15 @@
 #define MAX_BATCH 64
 #define IN_FLIGHT 3
 
-struct decode_push {
-	int32_t child_layer, parent_layer, quadrant, ratio;
+/* Twin of `Job` in shaders/patch_decode.comp and patch_normals.comp (std430). */
+struct job_params {
+	int32_t layer, parent_layer, quadrant, ratio;
 	uint32_t slot, flag;
 	int32_t mode, P;
-};
-
-struct normals_push {
-	int32_t layer, P;
-	float q2, inv_2sx, inv_2sy;
 	uint32_t mask;
+	float q2, inv_2sx, inv_2sy;
 };
+_Static_assert(sizeof(struct job_params) == 48, "job record");
 
 struct request {
 	float prio;
@@ -67,6 +65,7 @@ struct relief_patch_cache {
 	/* GPU objects */
 	struct relief_vk_image heights, normals;
 	struct relief_vk_buffer errors, staging, flags, layer_table, use_table;
+	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH], host-visible */
 	VkDescriptorSetLayout set_layout;
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;
@@ -202,15 +201,16 @@ static uint32_t layers_for_budget(struct relief_patch_cache *c, uint32_t cap)
 static int create_descriptors(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
-	VkDescriptorSetLayoutBinding b[4] = {
+	VkDescriptorSetLayoutBinding b[5] = {
 		{ 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 	};
 	VkDescriptorSetLayoutCreateInfo li = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-		.bindingCount = 4,
+		.bindingCount = 5,
 		.pBindings = b,
 	};
 	int ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &c->set_layout),
@@ -219,7 +219,7 @@ static int create_descriptors(struct relief_patch_cache *c)
 		return ret;
 	VkDescriptorPoolSize sizes[2] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 },
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
@@ -242,20 +242,22 @@ static int create_descriptors(struct relief_patch_cache *c)
 	VkDescriptorImageInfo ni = { VK_NULL_HANDLE, c->normals.view, VK_IMAGE_LAYOUT_GENERAL };
 	VkDescriptorBufferInfo si = { c->staging.buffer, 0, VK_WHOLE_SIZE };
 	VkDescriptorBufferInfo fi = { c->flags.buffer, 0, VK_WHOLE_SIZE };
-	VkWriteDescriptorSet w[4] = {
+	VkDescriptorBufferInfo ji = { c->jobs.buffer, 0, VK_WHOLE_SIZE };
+	VkWriteDescriptorSet w[5] = {
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 0, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &hi, NULL, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 1, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &ni, NULL, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 2, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &si, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 3, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &fi, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 4, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &ji, NULL },
 	};
-	vkUpdateDescriptorSets(vk->device, 4, w, 0, NULL);
+	vkUpdateDescriptorSets(vk->device, 5, w, 0, NULL);
 	return 0;
 }
 
 static int create_pipelines(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
-	VkPushConstantRange range = { VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(struct decode_push) };
+	VkPushConstantRange range = { VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t) }; /* first job */
 	VkPipelineLayoutCreateInfo li = {
 		.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
 		.setLayoutCount = 1,
@@ -409,6 +411,8 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->layer_table, sizeof(int32_t) * c->count,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &c->jobs, sizeof(struct job_params) * IN_FLIGHT * MAX_BATCH,
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->use_table, sizeof(uint32_t) * c->count,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0)
 		goto fail;
@@ -489,6 +493,7 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 	relief_vk_buffer_finish(vk, &c->flags);
 	relief_vk_buffer_finish(vk, &c->layer_table);
 	relief_vk_buffer_finish(vk, &c->use_table);
+	relief_vk_buffer_finish(vk, &c->jobs);
 	free(c->state);
 	free(c->layer);
 	free(c->last_used);
@@ -687,15 +692,17 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 		vkCmdCopyBuffer(cmd, c->staging.buffer, c->errors.buffer, 1, &copy);
 		flags[b->jobs[i].slot] = 0;
 	}
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
-	/* 8 x 8 workgroups: decode over (P + 3) / 2 quads per side, normals over P samples */
-	const uint32_t groups_e = ((c->P + 3) / 2 + 7) / 8, groups_p = (c->P + 7) / 8;
+	/* One record per job, read by both passes; each pass is one dispatch for the batch. */
+	uint32_t first = (uint32_t)(b - c->batches) * MAX_BATCH;
+	struct job_params *jp = (struct job_params *)c->jobs.map + first;
 	for (uint32_t i = 0; i < b->n; i++) {
 		uint32_t id = b->jobs[i].id, l, px, py;
 		relief_patch_coords(lay, id, &l, &px, &py);
-		struct decode_push push = {
-			.child_layer = (int32_t)b->layers[i],
+		double step = (double)(1u << (lay->levels - 1 - l));
+		struct relief_patch_record rec;
+		relief_file_record(c->file, id, &rec);
+		jp[i] = (struct job_params){
+			.layer = (int32_t)b->layers[i],
 			.parent_layer = id ? c->layer[parent_of(c, id)] : 0,
 			.quadrant = (int32_t)((px & 1) | ((py & 1) << 1)),
 			.ratio = (int32_t)lay->ratio,
@@ -703,32 +710,24 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 			.flag = b->jobs[i].slot,
 			.mode = id == 0,
 			.P = (int32_t)c->P,
-		};
-		vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-		vkCmdDispatch(cmd, groups_e, groups_e, 1);
-	}
-	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
-	for (uint32_t i = 0; i < b->n; i++) {
-		uint32_t id = b->jobs[i].id, l, px, py;
-		relief_patch_coords(lay, id, &l, &px, &py);
-		double step = (double)(1u << (lay->levels - 1 - l));
-		struct normals_push push = {
-			.layer = (int32_t)b->layers[i],
-			.P = (int32_t)c->P,
+			.mask = (rec.flags & RELIEF_PATCH_MASKED)
+			            ? (uint32_t)(b->jobs[i].slot * c->slot_ints + lay->geom.n_labels + (size_t)c->E * c->E)
+			            : UINT32_MAX,
 			.q2 = (float)(2.0 * lay->delta[l]),
 			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
 			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
-			.mask = UINT32_MAX,
 		};
-		struct relief_patch_record rec;
-		relief_file_record(c->file, id, &rec);
-		if (rec.flags & RELIEF_PATCH_MASKED)
-			push.mask = (uint32_t)(b->jobs[i].slot * c->slot_ints + lay->geom.n_labels + (size_t)c->E * c->E);
-		vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-		vkCmdDispatch(cmd, groups_p, groups_p, 1);
 	}
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
+	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
+	/* 8 x 8 workgroups: decode over (P + 3) / 2 quads per side, normals over P samples */
+	const uint32_t groups_e = ((c->P + 3) / 2 + 7) / 8, groups_p = (c->P + 7) / 8;
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
+	vkCmdDispatch(cmd, groups_e, groups_e, b->n);
+	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdDispatch(cmd, groups_p, groups_p, b->n);
 	/* Make the results visible to every later reader, and the flags to the host. */
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
 	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
