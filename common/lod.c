@@ -108,7 +108,7 @@ void relief_view_matrix(const struct relief_view *v, float out[16])
 	struct relief_mat4 view, proj, vp;
 	relief_mat4_look_at((struct relief_vec3){ 0, 0, 0 }, relief_vec3_sub(v->target, v->eye),
 	                    (struct relief_vec3){ 0, 0, 1 }, &view);
-	proj = relief_mat4_perspective(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
+	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
 	vp = relief_mat4_mul(&proj, &view);
 	relief_mat4_to_float(&vp, out);
 }
@@ -198,9 +198,17 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 	return drawn;
 }
 
+double relief_view_depth_distance(const struct relief_view *v, double d)
+{
+	if (!(d > 0))
+		return INFINITY;
+	/* Inverse of relief_mat4_perspective_reversed(): d = n (f - D) / (D (f - n)). */
+	return v->znear * v->zfar / (d * (v->zfar - v->znear) + v->znear);
+}
+
 struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int y, double d)
 {
-	double D = v->znear * v->zfar / (v->zfar - d * (v->zfar - v->znear)); /* along the view axis */
+	double D = relief_view_depth_distance(v, d); /* along the view axis */
 	struct relief_vec3 f, r, u;
 	relief_vec3_normalize(relief_vec3_sub(v->target, v->eye), &f);
 	relief_vec3_normalize(relief_vec3_cross(f, (struct relief_vec3){ 0, 0, 1 }), &r);
@@ -215,7 +223,7 @@ double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p,
 {
 	struct relief_mat4 view, proj, vp;
 	relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &view);
-	proj = relief_mat4_perspective(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
+	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
 	vp = relief_mat4_mul(&proj, &view);
 	double w0, w1;
 	struct relief_vec3 a = relief_mat4_transform(&vp, p, &w0);

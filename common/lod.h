@@ -47,13 +47,16 @@ void relief_patch_box(const struct relief_file *f, const struct relief_view_orig
 /* Distance from the camera (at the origin) to the box; 0 inside. */
 float relief_box_distance(const struct relief_box *b);
 
-/* Camera-relative view-projection (the camera at the origin; Vulkan clip conventions). */
+/* Camera-relative view-projection (the camera at the origin; Vulkan clip conventions,
+ * reversed Z: depth 1 at the near plane, 0 at the far plane). */
 void relief_view_matrix(const struct relief_view *v, float out[16]);
 /* True when the box lies entirely outside one plane of the frustum of `vp`. */
 bool relief_box_culled(const float vp[16], const struct relief_box *b);
 
 /* Measuring what a frame shows (tests, benchmarks). */
-/* World point seen at pixel (x, y) whose Vulkan depth is d (perspective of the view). */
+/* Distance along the view axis of reversed-Z depth d; +infinity for the background (d <= 0). */
+double relief_view_depth_distance(const struct relief_view *v, double d);
+/* World point seen at pixel (x, y) whose reversed-Z depth is d (d > 0). */
 struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int y, double d);
 /* Length in pixels of the vertical segment from p to p + e z (inf if it crosses the eye plane). */
 double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e);

@@ -85,6 +85,18 @@ struct relief_mat4 relief_mat4_perspective(double fovy, double aspect, double zn
 	return r;
 }
 
+struct relief_mat4 relief_mat4_perspective_reversed(double fovy, double aspect, double znear, double zfar)
+{
+	double f = 1.0 / tan(fovy / 2.0);
+	struct relief_mat4 r = { { 0 } };
+	r.m[0] = f / aspect;
+	r.m[5] = -f;
+	r.m[10] = znear / (zfar - znear);
+	r.m[11] = -1.0;
+	r.m[14] = znear * zfar / (zfar - znear);
+	return r;
+}
+
 struct relief_mat4 relief_mat4_ortho(double l, double r, double b, double t, double zn, double zf)
 {
 	/* View-space z = -zn maps to depth 0, z = -zf to depth 1; y = t to the top row. */

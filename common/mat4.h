@@ -30,6 +30,10 @@ bool relief_mat4_look_at(struct relief_vec3 eye, struct relief_vec3 target, stru
                          struct relief_mat4 *out);
 /* Perspective with vertical field of view fovy (radians); camera looks down -z. */
 struct relief_mat4 relief_mat4_perspective(double fovy, double aspect, double znear, double zfar);
+/* Reversed-Z perspective: depth 1 at znear, 0 at zfar, so that float depth keeps its
+ * precision far away (terrain views reach hundreds of kilometres from a near plane of a
+ * metre). Use with a depth clear of 0 and a GREATER depth test. */
+struct relief_mat4 relief_mat4_perspective_reversed(double fovy, double aspect, double znear, double zfar);
 /* Orthographic mapping x in [l, r] -> [-1, 1], y in [b, t] -> [1, -1] (north up on screen),
  * view-space z = -zn -> depth 0 and z = -zf -> depth 1 (camera looks down -z). */
 struct relief_mat4 relief_mat4_ortho(double l, double r, double b, double t, double zn, double zf);

@@ -101,7 +101,7 @@ static int measure(struct run *r, const struct config *c, struct result *res)
 			for (uint32_t x = 0; x < W; x++) {
 				size_t k = (size_t)y * W + x;
 				float e = NAN;
-				if (depth[k] < 1.0f) {
+				if (depth[k] > 0.0f) { /* reversed Z: 0 is the background */
 					struct relief_vec3 p = relief_view_unproject(v, (int)x, (int)y, depth[k]);
 					double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p);
 					double px = relief_view_segment_px(v, p, fabs(dz));
@@ -172,7 +172,7 @@ static void flight(const struct relief_file *f, uint32_t frames, uint32_t w, uin
 			.eye = { x, y, z },
 			.target = { x + 0.2 * ex, y + 0.2 * ey, z - 0.06 * sqrt(ex * ex + ey * ey) },
 			.fovy = 55.0 * M_PI / 180.0, .width = w, .height = h,
-			.znear = 25.0, .zfar = 2 * reach, .tau = 1.0, /* 25 m: the camera flies >= 100 m above every peak */
+			.znear = 1.0, .zfar = 2 * reach, .tau = 1.0, /* reversed Z keeps depth precise far away */
 		};
 	}
 }

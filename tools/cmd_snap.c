@@ -166,12 +166,8 @@ int cmd_snap(int argc, char **argv)
 		size_t n = (size_t)width * height;
 		float *dist = malloc(sizeof(float) * n);
 		const float *d = target.depth_readback.map;
-		for (size_t i = 0; i < n && dist; i++) {
-			double z = d[i];
-			float v = z >= 1.0 ? INFINITY
-			                   : (float)(view.znear * view.zfar / (view.zfar - z * (view.zfar - view.znear)));
-			le_put_f32((uint8_t *)&dist[i], v);
-		}
+		for (size_t i = 0; i < n && dist; i++)
+			le_put_f32((uint8_t *)&dist[i], (float)relief_view_depth_distance(&view, d[i]));
 		FILE *df = dist ? fopen(depth_path, "wbe") : NULL;
 		bool ok = df && fwrite(dist, sizeof(float), n, df) == n;
 		if (df && fclose(df) != 0)

@@ -108,7 +108,7 @@ int relief_grid_render(struct relief_grid *g, const struct relief_grid_params *p
 	if (g->stats_pool)
 		vkCmdResetQueryPool(cmd, g->stats_pool, 0, 1);
 	const float clear[4] = { 0.0f, 0.0f, 0.0f, 1.0f };
-	relief_vk_target_begin(g->target, cmd, clear);
+	relief_vk_target_begin(g->target, cmd, clear, 1.0f);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, g->pipeline);
 	vkCmdPushConstants(cmd, g->layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(push), &push);
 	if (g->stats_pool)

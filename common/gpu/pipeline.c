@@ -68,7 +68,8 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 		.sType = VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO,
 		.depthTestEnable = VK_TRUE,
 		.depthWriteEnable = d->wireframe ? VK_FALSE : VK_TRUE,
-		.depthCompareOp = d->wireframe ? VK_COMPARE_OP_LESS_OR_EQUAL : VK_COMPARE_OP_LESS,
+		.depthCompareOp = d->reversed_z ? (d->wireframe ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_GREATER)
+		                                : (d->wireframe ? VK_COMPARE_OP_LESS_OR_EQUAL : VK_COMPARE_OP_LESS),
 	};
 	VkPipelineColorBlendAttachmentState blend_att = { .colorWriteMask = 0xf };
 	VkPipelineColorBlendStateCreateInfo blend = {

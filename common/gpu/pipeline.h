@@ -16,6 +16,7 @@ struct relief_vk_tess_pipeline_desc {
 	VkPipelineLayout layout;
 	VkRenderPass pass;
 	bool wireframe; /* needs vk->has.fill_mode_non_solid */
+	bool reversed_z; /* depth test GREATER (nearer is larger) instead of LESS */
 };
 
 /* The pipeline has dynamic viewport and scissor, depth test LESS with writes, back faces

@@ -120,11 +120,11 @@ void relief_vk_target_finish(struct relief_vk *vk, struct relief_vk_target *t)
 	memset(t, 0, sizeof(*t));
 }
 
-void relief_vk_target_begin(struct relief_vk_target *t, VkCommandBuffer cmd, const float clear[4])
+void relief_vk_target_begin(struct relief_vk_target *t, VkCommandBuffer cmd, const float clear[4], float depth_clear)
 {
 	VkClearValue clears[2];
 	memcpy(clears[0].color.float32, clear, sizeof(float) * 4);
-	clears[1].depthStencil = (VkClearDepthStencilValue){ 1.0f, 0 };
+	clears[1].depthStencil = (VkClearDepthStencilValue){ depth_clear, 0 };
 	VkRenderPassBeginInfo begin = {
 		.sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO,
 		.renderPass = t->pass,

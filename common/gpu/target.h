@@ -20,9 +20,10 @@ struct relief_vk_target {
 
 int relief_vk_target_init(struct relief_vk *vk, struct relief_vk_target *t, uint32_t width, uint32_t height);
 void relief_vk_target_finish(struct relief_vk *vk, struct relief_vk_target *t);
-/* Begins the render pass (clears colour to `clear`, depth to 1) and sets the viewport and
- * scissor to the whole target. */
-void relief_vk_target_begin(struct relief_vk_target *t, VkCommandBuffer cmd, const float clear[4]);
+/* Begins the render pass (clears colour to `clear`, depth to `depth_clear`: 1 for a
+ * standard depth range, 0 for reversed Z) and sets the viewport and scissor to the whole
+ * target. */
+void relief_vk_target_begin(struct relief_vk_target *t, VkCommandBuffer cmd, const float clear[4], float depth_clear);
 /* Ends the render pass and records the copies into the readback buffers, with the barriers
  * that make them visible to the host once the command buffer completes. */
 void relief_vk_target_end(struct relief_vk_target *t, VkCommandBuffer cmd);

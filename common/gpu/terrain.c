@@ -176,6 +176,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		.control_points = 4,
 		.layout = t->draw_layout,
 		.pass = target->pass,
+		.reversed_z = true,
 	};
 	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_fill)) < 0)
 		goto fail;
@@ -411,7 +412,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, t->timer, 1);
 
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
-	relief_vk_target_begin(target, cmd, sky);
+	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
 	if (t->stats_pool)
 		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);

@@ -21,6 +21,21 @@ static void test_perspective_depth_range(void **state)
 	assert_true(up.y / w < 0);
 }
 
+static void test_reversed_depth(void **state)
+{
+	struct relief_mat4 p = relief_mat4_perspective_reversed(M_PI / 3, 2.0, 0.5, 1e6);
+	double w;
+	struct relief_vec3 n = relief_mat4_transform(&p, (struct relief_vec3){ 0, 0, -0.5 }, &w);
+	assert_true(fabs(n.z / w - 1.0) < 1e-12); /* near plane: depth 1 */
+	struct relief_vec3 f = relief_mat4_transform(&p, (struct relief_vec3){ 0, 0, -1e6 }, &w);
+	assert_true(fabs(f.z / w) < 1e-12);       /* far plane: depth 0 */
+	/* Far away, neighbouring float depths are still metres apart, not kilometres. */
+	struct relief_vec3 a = relief_mat4_transform(&p, (struct relief_vec3){ 0, 0, -100000 }, &w);
+	float d = (float)(a.z / w), next = nextafterf(d, 1.0f);
+	double D = 0.5 * 1e6 / (next * (1e6 - 0.5) + 0.5); /* inverse of the mapping */
+	assert_true(fabs(D - 100000) < 5.0);
+}
+
 static void test_look_at_degenerate(void **state)
 {
 	struct relief_mat4 m;
@@ -46,6 +61,7 @@ int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_perspective_depth_range),
+		cmocka_unit_test(test_reversed_depth),
 		cmocka_unit_test(test_look_at_degenerate),
 		cmocka_unit_test(test_ortho),
 	};
