@@ -167,6 +167,10 @@ static void test_reconstruct_refuses_out_of_range(void **state)
 	assert_int_equal(relief_patch_reconstruct(&g, 3, 1, parent, labels, res, out), -EBADMSG);
 	res[7] = -(1 << 29);
 	assert_int_equal(relief_patch_reconstruct(&g, 3, 1, parent, labels, res, out), -EBADMSG);
+	res[7] = INT32_MIN; /* must be refused, not overflow (UBSan watches) */
+	assert_int_equal(relief_patch_reconstruct(&g, 3, 1, parent, labels, res, out), -EBADMSG);
+	res[7] = INT32_MAX;
+	assert_int_equal(relief_patch_reconstruct(&g, 3, 1, parent, labels, res, out), -EBADMSG);
 	res[7] = 0;
 	assert_int_equal(relief_patch_reconstruct(&g, 3, 1, parent, labels, res, out), 0);
 	res[0] = INT32_MIN;
