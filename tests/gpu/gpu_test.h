@@ -51,9 +51,16 @@ static inline int gpu_test_group_setup(void **state)
 	return 0;
 }
 
+/* Prints the line scripts/test adds up for its summary. */
+static inline void gpu_test_report(unsigned messages)
+{
+	printf("relief-validation: %u messages\n", messages);
+}
+
 static inline int gpu_test_group_teardown(void **state)
 {
 	unsigned messages = atomic_load(&gpu_test_vk->validation_messages);
 	relief_vk_destroy(gpu_test_vk);
+	gpu_test_report(messages);
 	return messages ? -1 : 0;
 }

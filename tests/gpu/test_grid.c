@@ -46,6 +46,7 @@ static int teardown(void **state)
 	unsigned messages = atomic_load(&f->vk->validation_messages);
 	relief_vk_destroy(f->vk);
 	free(f);
+	gpu_test_report(messages);
 	return messages ? -1 : 0; /* a validation message during teardown fails the group */
 }
 
