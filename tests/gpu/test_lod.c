@@ -140,24 +140,22 @@ static void render(struct scene *s, struct relief_view *v, float *depth, struct 
 
 /* Against a full-resolution render of the same camera: no background inside the terrain's
  * silhouette (cracks), and the surface's vertical error in pixels within tau. */
-static void test_watertight_and_error_bound(void **state)
+struct pose {
+	double eye[3], at[3];
+};
+
+static void watertight_and_error_bound(enum test_dem dem, const struct pose *poses, size_t n_poses)
 {
 	enum { W = 320, H = 180 };
 	struct scene s;
-	scene_open(&s, DEM_PUGET, 1.0, W, H);
+	scene_open(&s, dem, 1.0, W, H);
 	uint32_t fw, fh;
 	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
 	float *finest = malloc(sizeof(float) * fw * fh);
 	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
 	float *ref = malloc(sizeof(float) * W * H), *lod = malloc(sizeof(float) * W * H);
-	const struct { double eye[3], at[3]; } poses[] = {
-		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
-		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing */
-		{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
-		{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
-	};
 	const double taus[] = { 1.0, 4.0 };
-	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+	for (size_t p = 0; p < n_poses; p++) {
 		struct relief_view v = {
 			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
 			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
@@ -194,8 +192,9 @@ static void test_watertight_and_error_bound(void **state)
 						both++;
 					}
 				}
-			print_message("pose %zu tau %g: %u patches (reference %u), %u holes, max vertical error %.3f px "
-			              "(%.2f m) over %u pixels\n", p, v.tau, st.patches, ref_patches, holes, worst, worst_err, both);
+			print_message("%s pose %zu tau %g: %u patches (reference %u), %u holes, max vertical error %.3f px "
+			              "(%.2f m) over %u pixels\n", test_dem_name(dem), p, v.tau, st.patches, ref_patches, holes,
+			              worst, worst_err, both);
 			assert_int_equal(holes, 0);
 			assert_true(ref_patches > 0 && st.patches > 0);
 			assert_true(both > W * H / 8); /* the view really shows terrain */
@@ -209,6 +208,29 @@ static void test_watertight_and_error_bound(void **state)
 	free(lod);
 	scene_close(&s);
 	gpu_test_assert_clean(vk);
+}
+
+static void test_watertight_and_error_bound_puget(void **state)
+{
+	/* Puget Sound spans x, y in [0, 163840] m; Mt Rainier's summit is at (128480, 79200). */
+	const struct pose poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing */
+		{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
+		{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
+	};
+	watertight_and_error_bound(DEM_PUGET, poses, sizeof(poses) / sizeof(poses[0]));
+}
+
+static void test_watertight_and_error_bound_alps(void **state)
+{
+	/* Mont Blanc: x in [0, 59884] m, y in [0, 59884] m, heights 454-4810 m. */
+	const struct pose poses[] = {
+		{ { 8000, 30000, 1200 }, { 50000, 32000, 1500 } },     /* grazing along a valley floor */
+		{ { 30000, 30000, 9000 }, { 30100, 30200, 3000 } },    /* steep look down onto the massif */
+		{ { 23731, 23731, 5600 }, { 40000, 40000, 2500 } },    /* eye above a patch corner */
+	};
+	watertight_and_error_bound(DEM_ALPS, poses, sizeof(poses) / sizeof(poses[0]));
 }
 
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
@@ -334,7 +356,8 @@ int main(void)
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_view_check),
 		cmocka_unit_test(test_gpu_matches_cpu),
-		cmocka_unit_test(test_watertight_and_error_bound),
+		cmocka_unit_test(test_watertight_and_error_bound_puget),
+		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_nodata_hidden),
 	};
