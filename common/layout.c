@@ -75,12 +75,3 @@ void relief_qgrid_get_patch(const struct relief_qgrid *g, const struct relief_pa
 		memcpy(block + (size_t)y * geom->E, g->q + (py * (geom->P - 1) + y) * stride + px * (geom->P - 1),
 		       sizeof(int32_t) * geom->E);
 }
-
-void relief_qgrid_put_patch(struct relief_qgrid *g, const struct relief_patch_geom *geom,
-                            uint32_t px, uint32_t py, const int32_t *block)
-{
-	size_t stride = g->size + 2;
-	for (uint32_t y = 0; y < geom->E; y++)
-		memcpy(g->q + (py * (geom->P - 1) + y) * stride + px * (geom->P - 1), block + (size_t)y * geom->E,
-		       sizeof(int32_t) * geom->E);
-}

@@ -64,8 +64,6 @@ struct relief_qgrid {
 
 int relief_qgrid_init(struct relief_qgrid *g, uint32_t size);
 void relief_qgrid_finish(struct relief_qgrid *g);
-/* Copies patch (px, py)'s E x E block (with ring) out of / into a level grid. */
+/* Copies patch (px, py)'s E x E block (with ring) out of a level grid. */
 void relief_qgrid_get_patch(const struct relief_qgrid *g, const struct relief_patch_geom *geom,
                             uint32_t px, uint32_t py, int32_t *block);
-void relief_qgrid_put_patch(struct relief_qgrid *g, const struct relief_patch_geom *geom,
-                            uint32_t px, uint32_t py, const int32_t *block);

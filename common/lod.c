@@ -92,17 +92,6 @@ float relief_box_distance(const struct relief_box *b)
 	return sqrtf(d2);
 }
 
-float relief_patch_screen_error(const struct relief_file *f, const struct relief_view_origin *o, float kappa,
-                                uint32_t id)
-{
-	struct relief_box b;
-	relief_patch_box(f, o, id, &b);
-	struct relief_patch_record r;
-	relief_file_record(f, id, &r);
-	float d = relief_box_distance(&b);
-	return d > 0.0f ? r.error * kappa / d : INFINITY;
-}
-
 void relief_view_matrix(const struct relief_view *v, float out[16])
 {
 	struct relief_mat4 view, proj, vp;

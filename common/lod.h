@@ -66,21 +66,18 @@ double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p,
 double relief_surface_vertical_error(const struct relief_file *f, const float *heights, uint32_t w, uint32_t h,
                                      uint32_t step, struct relief_vec3 p);
 
-/* The coarse selection takes patches whose screen error is within this share of tau; the
+/* A patch's screen error is Err(P) * kappa / (distance from the camera to its box), infinite
+ * inside the box. The coarse selection takes patches whose screen error is within this
+ * share of tau (tau_c); the
  * rest is left to the tessellator, whose block errors include Err(P). With the whole of tau
  * (the paper), coarse patches spend it all on Err(P) and their blocks can rarely simplify:
  * measured on Puget Sound, a half share draws a third fewer triangles at the same measured
  * error (docs/benchmarks.md). */
 #define RELIEF_LOD_COARSE_SHARE 0.5
 
-/* Hysteresis: a patch splits when its screen error exceeds tau, and stays split until it
- * falls below RELIEF_LOD_MERGE * tau, so a still camera does not flicker. */
+/* Hysteresis: a patch splits when its screen error exceeds tau_c, and stays split until it
+ * falls below RELIEF_LOD_MERGE * tau_c, so a still camera does not flicker. */
 #define RELIEF_LOD_MERGE 0.8f
-
-/* Screen-space error of patch id for this view: Err(P) * kappa / distance (inf inside);
- * the selection compares it with RELIEF_LOD_COARSE_SHARE * tau. */
-float relief_patch_screen_error(const struct relief_file *f, const struct relief_view_origin *o, float kappa,
-                                uint32_t id);
 
 /* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
  * drawn (resident in the cache); `split_prev` / `split_next` are the view's hysteresis bits

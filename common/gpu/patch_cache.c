@@ -79,7 +79,7 @@ struct relief_patch_cache {
 
 	/* render-thread state, per patch */
 	uint8_t *state;
-	int32_t *layer;
+	int32_t *layer; /* layer of each resident patch, -1 otherwise; mirrored to layer_table */
 	uint64_t *last_used;
 	uint16_t *children; /* resident children */
 	uint16_t *pins;     /* children queued or decoding */
@@ -376,7 +376,6 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 		relief_file_record(f, id, &r);
 		c->state[id] = (r.flags & RELIEF_PATCH_EMPTY) ? RELIEF_PATCH_NONE : RELIEF_PATCH_ABSENT;
 		drawable += !(r.flags & RELIEF_PATCH_EMPTY);
-		c->layer[id] = -1;
 	}
 
 	VkFormatProperties fp;
@@ -416,7 +415,9 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	    (ret = relief_vk_buffer_init(vk, &c->use_table, sizeof(uint32_t) * c->count,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0)
 		goto fail;
-	memset(c->layer_table.map, 0xff, sizeof(int32_t) * c->count); /* -1: nothing resident */
+	/* -1: nothing resident */
+	memset(c->layer, 0xff, sizeof(int32_t) * c->count);
+	memset(c->layer_table.map, 0xff, sizeof(int32_t) * c->count);
 	memset(c->use_table.map, 0, sizeof(uint32_t) * c->count);
 	c->pool_bytes = pool_bytes_for(c, n);
 	c->pool = (struct relief_patch_pool){ c->heights.view, c->normals.view, c->errors.buffer, n,
@@ -560,6 +561,14 @@ void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_
 
 /* ---- layers ---- */
 
+/* The host array is what the CPU reads (layer_table may be uncached, write-combined memory
+ * on a discrete GPU); layer_table is what the shaders read. Only this writes either. */
+static void set_layer(struct relief_patch_cache *c, uint32_t id, int32_t layer)
+{
+	c->layer[id] = layer;
+	((int32_t *)c->layer_table.map)[id] = layer;
+}
+
 static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
 {
 	if (c->n_free_layers)
@@ -585,8 +594,7 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
 		return -1;
 	uint32_t id = (uint32_t)c->owner[best];
 	c->state[id] = RELIEF_PATCH_ABSENT;
-	c->layer[id] = -1;
-	((int32_t *)c->layer_table.map)[id] = -1;
+	set_layer(c, id, -1);
 	c->children[parent_of(c, id)]--;
 	c->owner[best] = -1;
 	c->stats.evicted++;
@@ -627,8 +635,7 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 			mark_bad(c, id, -EBADMSG);
 		} else {
 			c->state[id] = RELIEF_PATCH_RESIDENT;
-			c->layer[id] = (int32_t)layer;
-			((int32_t *)c->layer_table.map)[id] = (int32_t)layer;
+			set_layer(c, id, (int32_t)layer);
 			if (c->last_used[id] < frame)
 				c->last_used[id] = frame;
 			if (id != 0) {
@@ -798,40 +805,28 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 	return made;
 }
 
-static bool busy(struct relief_patch_cache *c, bool *in_flight)
-{
-	*in_flight = false;
-	for (int i = 0; i < IN_FLIGHT; i++)
-		*in_flight |= c->batches[i].busy;
-	pthread_mutex_lock(&c->lock);
-	bool worker = c->n_heap || c->in_worker || c->n_ready;
-	pthread_mutex_unlock(&c->lock);
-	return worker || *in_flight || c->n_pending;
-}
-
 int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame)
 {
 	for (;;) {
 		int ret = relief_patch_cache_update(c, frame);
 		if (ret < 0)
 			return ret;
-		bool in_flight;
-		if (!busy(c, &in_flight))
-			return 0;
-		if (in_flight) {
-			for (int i = 0; i < IN_FLIGHT; i++)
-				if (c->batches[i].busy)
-					vkWaitForFences(c->vk->device, 1, &c->batches[i].fence, VK_TRUE, UINT64_MAX);
+		bool in_flight = false;
+		for (int i = 0; i < IN_FLIGHT; i++)
+			if (c->batches[i].busy) {
+				vkWaitForFences(c->vk->device, 1, &c->batches[i].fence, VK_TRUE, UINT64_MAX);
+				in_flight = true;
+			}
+		if (in_flight)
 			continue;
-		}
 		pthread_mutex_lock(&c->lock);
 		bool worker = c->n_heap || c->in_worker || c->n_ready;
-		if (!worker && c->n_pending) {
-			/* Symbols wait for a layer that nothing will free at this frame. */
+		if (!worker) {
 			pthread_mutex_unlock(&c->lock);
-			return -ENOSPC;
+			/* Pending symbols here wait for a layer that nothing will free at this frame. */
+			return c->n_pending ? -ENOSPC : 0;
 		}
-		if (worker && !c->n_ready) {
+		if (!c->n_ready) {
 			struct timespec ts;
 			clock_gettime(CLOCK_REALTIME, &ts);
 			ts.tv_nsec += 2000000;

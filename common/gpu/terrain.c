@@ -71,7 +71,8 @@ struct relief_terrain {
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, draw_layout;
 	VkPipeline select, commands, draw_fill, draw_wire;
-	VkQueryPool stats_pool, timer;
+	VkQueryPool stats_pool;
+	struct relief_vk_timer timer; /* 0 frame start, 1 selection done, 2 frame done */
 	uint32_t count, blocks, per_patch, per_draw, max_patches, max_draws;
 };
 
@@ -189,7 +190,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	    (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT, 1,
 	                                       &t->stats_pool)) < 0)
 		goto fail;
-	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 3, &t->timer)) < 0)
+	if ((ret = relief_vk_timer_init(vk, &t->timer, 3)) < 0 && ret != -ENOTSUP)
 		goto fail;
 	*out = t;
 	return 0;
@@ -215,8 +216,7 @@ void relief_terrain_destroy(struct relief_terrain *t)
 		vkDestroyDescriptorSetLayout(dev, t->set_layout, NULL);
 	if (t->stats_pool)
 		vkDestroyQueryPool(dev, t->stats_pool, NULL);
-	if (t->timer)
-		vkDestroyQueryPool(dev, t->timer, NULL);
+	relief_vk_timer_finish(t->vk, &t->timer);
 	relief_vk_buffer_finish(t->vk, &t->info);
 	free(t);
 }
@@ -378,9 +378,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	int ret = relief_vk_cmd_begin(vk, &cmd);
 	if (ret < 0)
 		return ret;
-	if (t->timer) {
-		vkCmdResetQueryPool(cmd, t->timer, 0, 3);
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, t->timer, 0);
+	if (t->timer.pool) {
+		relief_vk_timer_reset(&t->timer, cmd);
+		relief_vk_timer_write(&t->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
 	}
 	if (t->stats_pool)
 		vkCmdResetQueryPool(cmd, t->stats_pool, 0, 1);
@@ -408,8 +408,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
 	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
-	if (t->timer)
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, t->timer, 1);
+	if (t->timer.pool)
+		relief_vk_timer_write(&t->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
@@ -431,8 +431,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	relief_vk_target_end(target, cmd);
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
 	        VK_ACCESS_HOST_READ_BIT);
-	if (t->timer)
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, t->timer, 2);
+	if (t->timer.pool)
+		relief_vk_timer_write(&t->timer, cmd, 2, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
 	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
 		return ret;
 	v->parity ^= 1;
@@ -445,14 +445,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->stats_pool)
 		vkGetQueryPoolResults(vk->device, t->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
 		                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
-	if (t->timer) {
-		uint64_t ts[3];
-		if (vkGetQueryPoolResults(vk->device, t->timer, 0, 3, sizeof(ts), ts, sizeof(uint64_t),
-		                          VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT) == VK_SUCCESS) {
-			s.select_ns = (uint64_t)((ts[1] - ts[0]) * (double)vk->props.limits.timestampPeriod);
-			s.gpu_ns = (uint64_t)((ts[2] - ts[0]) * (double)vk->props.limits.timestampPeriod);
-		}
-	}
+	if (t->timer.pool && (relief_vk_timer_ns(vk, &t->timer, 0, 1, &s.select_ns) < 0 ||
+	                      relief_vk_timer_ns(vk, &t->timer, 0, 2, &s.gpu_ns) < 0))
+		s.select_ns = s.gpu_ns = 0;
 	/* Requests: coarser patches first (lower ids are coarser). */
 	const uint32_t *want = v->wants.map;
 	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
