@@ -17,6 +17,7 @@ layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint pad; } counters;
 layout(std430, binding = 6) writeonly buffer Wants { uint want[]; };
 layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
+layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 
 layout(push_constant) uniform Push {
 	mat4 vp;          // camera-relative view-projection
@@ -28,8 +29,6 @@ layout(push_constant) uniform Push {
 	float delta_finest; // tolerance of the finest level, metres
 	uint ratio;
 } pc;
-
-uint first_id(uint l) { return ((1u << (2u * l)) - 1u) / 3u; }
 
 void box(uint l, uint px, uint py, uint id, out vec3 bmin, out vec3 bmax)
 {
@@ -130,12 +129,17 @@ void main()
 	for (uint k = l + 1u; k < pc.levels; k++)
 		q2 *= float(pc.ratio);
 	it.q2 = q2;
-	it.origin = vec2(bmin.x, bmax.y);
-	it.step = vec2(pc.spacing.x, pc.spacing.y) * float(1u << (pc.levels - 1u - l));
+	int span = int(pc.P - 1u) << (pc.levels - 1u - l);
+	it.base = ivec2(int(px) * span, int(py) * span) - pc.cell;
+	it.scale = 1 << (pc.levels - 1u - l);
 	it.err = info[id].err;
 	it.skirt = info[id].skirt;
-	it.pad0 = 0.0;
-	it.pad1 = 0.0;
+	it.px = px;
+	it.py = py;
+	it.pad = 0.0;
+	it.frac = pc.frac;
+	it.spacing = pc.spacing;
 	inst[n] = it;
 	use_frame[id] = pc.frame;
+	drawn[id] = 1u;
 }

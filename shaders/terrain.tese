@@ -3,7 +3,8 @@
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
 // Vertices land on samples (factors are 16 / 2^d), displaced by the decoded heights;
-// positions are camera-relative, so floats stay small at any world coordinates.
+// positions are camera-relative, so floats stay small at any world coordinates, and formed
+// by pos_of() so that patches sharing a border put its vertices at the same bits.
 layout(quads, equal_spacing, ccw) in;
 layout(location = 0) in flat uint in_slot[];
 layout(location = 2) in vec2 in_s[];
@@ -12,6 +13,7 @@ layout(location = 0) out vec3 out_normal;
 layout(location = 1) out float out_height;
 layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
 layout(location = 3) flat out int out_layer;
+precise gl_Position; // shared border vertices get identical bits in both patches
 void main()
 {
 	Instance it = inst[in_slot[0]];
@@ -19,12 +21,13 @@ void main()
 	float down = mix(mix(in_down[0], in_down[1], gl_TessCoord.x), mix(in_down[2], in_down[3], gl_TessCoord.x),
 	                 gl_TessCoord.y);
 	ivec2 si = clamp(ivec2(s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
-	float h = it.q2 * float(imageLoad(heights, ivec3(si + 1, it.layer)).x);
+	precise float h = it.q2 * float(imageLoad(heights, ivec3(si + 1, it.layer)).x);
 	out_normal = imageLoad(normals, ivec3(si, it.layer)).xyz;
 	out_s = vec2(si);
 	out_layer = it.layer;
 	out_height = h;
-	vec3 p = vec3(it.origin.x + float(si.x) * it.step.x, it.origin.y - float(si.y) * it.step.y,
-	              h - pc.cam_z - down * it.skirt);
+	vec3 p = pos_of(it, si, h);
+	if (down > 0.0)
+		p.z -= down * it.skirt;
 	gl_Position = pc.vp * vec4(p, 1.0);
 }

@@ -1,5 +1,8 @@
-// Bindings and push constants of the terrain draw stages (common/gpu/terrain.c).
+// Bindings, push constants and helpers of the terrain draw stages (common/gpu/terrain.c).
+layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
+layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
+layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 10, rgba8_snorm) uniform readonly image2DArray normals;
 layout(std430, binding = 11) readonly buffer Errors { float block_err[]; };
@@ -9,7 +12,7 @@ layout(push_constant) uniform DrawPush {
 	vec2 viewport;    // pixels
 	float tau;        // pixels
 	float cam_z;      // metres
-	uint P, blocks, per_patch, mode; // bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*)
+	uint P, blocks, per_patch, mode; // bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no skirts
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
 	float target_px;  // FINE_DISTANCE: wanted triangle edge length, pixels
@@ -18,3 +21,27 @@ layout(push_constant) uniform DrawPush {
 const uint FINE_ERRORS = 0u;   // block errors and tau (relief)
 const uint FINE_FULL = 1u;     // every block at full resolution (chunked LOD, full grid)
 const uint FINE_DISTANCE = 2u; // factor from the edge's projected length (no error metric)
+const uint MODE_NO_SKIRTS = 8u; // tests: leave every crack open
+
+// Camera-relative position of the patch's sample m (x east, y north, z up) at height h
+// metres. Integer finest-grid indices first, one rounding to float after: every patch that
+// holds a sample computes the same bits for it, so shared borders meet exactly.
+vec3 pos_of(Instance it, ivec2 m, float h)
+{
+	precise float x = (float(it.base.x + m.x * it.scale) - it.frac.x) * it.spacing.x;
+	precise float y = (float(it.base.y + m.y * it.scale) - it.frac.y) * it.spacing.y;
+	precise float z = h - pc.cam_z;
+	return vec3(x, -y, z);
+}
+
+// The patch at the same level across border `side` (0 north, 1 south, 2 west, 3 east), or
+// -1 beyond the terrain's edge.
+int neighbour_id(Instance it, uint side)
+{
+	int n = 1 << it.level;
+	ivec2 q = ivec2(it.px, it.py) + (side == 0u ? ivec2(0, -1) : side == 1u ? ivec2(0, 1)
+	                               : side == 2u ? ivec2(-1, 0) : ivec2(1, 0));
+	if (q.x < 0 || q.y < 0 || q.x >= n || q.y >= n)
+		return -1;
+	return int(first_id(it.level)) + q.y * n + q.x;
+}

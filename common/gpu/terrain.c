@@ -55,13 +55,30 @@ struct instance {
 	uint32_t id;
 	int32_t layer;
 	uint32_t level;
-	float q2, origin[2], step[2], err, skirt, pad[2];
+	float q2;
+	int32_t base[2], scale;
+	float err, skirt;
+	uint32_t px, py;
+	float pad, frac[2], spacing[2];
 };
-_Static_assert(sizeof(struct instance) == 48, "instance");
+_Static_assert(sizeof(struct instance) == 64, "instance");
 
 struct counters {
 	uint32_t drawn, draws, wants, pad;
 };
+
+/* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts. */
+#define MODE_NO_SKIRTS 8u
+
+/* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
+ * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
+ * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks. */
+#define BINDINGS 13u
+
+static VkDescriptorType binding_type(uint32_t i)
+{
+	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+}
 
 struct relief_terrain {
 	struct relief_vk *vk;
@@ -78,7 +95,7 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	struct relief_vk_buffer split[2], instances, cmds, counters, wants;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn;
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;
@@ -143,18 +160,12 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		info[id] = (struct patch_info){ r.height_min, r.height_max, r.error, empty ? -1.0f : skirt_depth(f, id, &r) };
 	}
 
-	VkDescriptorSetLayoutBinding b[12];
-	const VkDescriptorType types[12] = {
-		VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-		VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-		VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-		VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-	};
-	for (uint32_t i = 0; i < 12; i++)
-		b[i] = (VkDescriptorSetLayoutBinding){ i, types[i], 1, VK_SHADER_STAGE_ALL, NULL };
+	VkDescriptorSetLayoutBinding b[BINDINGS];
+	for (uint32_t i = 0; i < BINDINGS; i++)
+		b[i] = (VkDescriptorSetLayoutBinding){ i, binding_type(i), 1, VK_SHADER_STAGE_ALL, NULL };
 	VkDescriptorSetLayoutCreateInfo li = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-		.bindingCount = 12,
+		.bindingCount = BINDINGS,
 		.pBindings = b,
 	};
 	if ((ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &t->set_layout),
@@ -237,10 +248,11 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->counters, sizeof(struct counters),
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0)
+	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 10 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 11 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -262,28 +274,29 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		goto fail;
 	const struct relief_patch_pool *pool = relief_patch_cache_pool(t->cache);
 	for (int s = 0; s < 2; s++) {
-		VkBuffer bufs[12] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
-		                      v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
-		                      v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors };
-		VkDescriptorBufferInfo bi[12];
+		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
+		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
+		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
+		                            v->drawn.buffer };
+		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
 			{ VK_NULL_HANDLE, pool->normals, VK_IMAGE_LAYOUT_GENERAL },
 		};
-		VkWriteDescriptorSet w[12];
-		for (uint32_t i = 0; i < 12; i++) {
+		VkWriteDescriptorSet w[BINDINGS];
+		for (uint32_t i = 0; i < BINDINGS; i++) {
 			bi[i] = (VkDescriptorBufferInfo){ bufs[i], 0, VK_WHOLE_SIZE };
 			w[i] = (VkWriteDescriptorSet){
 				.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
 				.dstSet = v->set[s],
 				.dstBinding = i,
 				.descriptorCount = 1,
-				.descriptorType = i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-				.pBufferInfo = i == 9 || i == 10 ? NULL : &bi[i],
+				.descriptorType = binding_type(i),
+				.pBufferInfo = binding_type(i) == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE ? NULL : &bi[i],
 				.pImageInfo = i == 9 ? &ii[0] : i == 10 ? &ii[1] : NULL,
 			};
 		}
-		vkUpdateDescriptorSets(vk->device, 12, w, 0, NULL);
+		vkUpdateDescriptorSets(vk->device, BINDINGS, w, 0, NULL);
 	}
 	/* Hysteresis starts with nothing split. */
 	VkCommandBuffer cmd;
@@ -310,6 +323,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->split[0]);
 	relief_vk_buffer_finish(vk, &v->split[1]);
 	relief_vk_buffer_finish(vk, &v->instances);
+	relief_vk_buffer_finish(vk, &v->drawn);
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);
@@ -390,6 +404,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	VkDescriptorSet set = v->set[v->parity];
@@ -417,7 +432,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->stats_pool)
 		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
-		dp.mode = (uint32_t)pass | ((uint32_t)opts->fine << 1);
+		dp.mode = (uint32_t)pass | ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pass ? t->draw_wire : t->draw_fill);
 		vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(dp), &dp);
 		if (vk->has.draw_indirect_count)

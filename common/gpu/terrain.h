@@ -48,6 +48,7 @@ struct relief_draw_options {
 	enum relief_fine_lod fine;
 	float target_px;              /* RELIEF_FINE_DISTANCE: wanted triangle width, pixels */
 	double select_tau;            /* > 0: tau for the coarse selection instead of view->tau */
+	bool no_skirts;               /* tests: draw no skirt, so that any crack stays open */
 };
 
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then
