@@ -6,6 +6,8 @@
 function(relief_add_shaders target)
   set(out_dir ${CMAKE_CURRENT_BINARY_DIR}/spv)
   set(headers)
+  # Every shader depends on every shared include: a change to one rebuilds them all.
+  file(GLOB includes CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.glsl)
   foreach(src ${ARGN})
     get_filename_component(name ${src} NAME)
     string(REPLACE "." "_" var ${name})
@@ -16,7 +18,7 @@ function(relief_add_shaders target)
       COMMAND ${GLSLANG_VALIDATOR} -V --target-env vulkan1.1 --quiet
               -I${CMAKE_CURRENT_SOURCE_DIR} --vn ${var}_spv -o ${hdr}
               ${CMAKE_CURRENT_SOURCE_DIR}/${src}
-      DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${src}
+      DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/${src} ${includes}
       COMMENT "glslang ${name}"
       VERBATIM)
     list(APPEND headers ${hdr})

@@ -2,119 +2,19 @@
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
-// Fine LOD (design notes §4): each edge of a tessellation block takes the coarsest
-// simplification d (factor 16 / 2^d) whose error segment, eps_d of the blocks on both sides
-// plus Err(P), projects to at most tau pixels. The paper measures the segment at the edge's
-// midpoint only; here it is measured at both endpoints too (the largest projection wins),
-// because an edge whose end is nearer the camera than its middle broke the bound in the
-// benchmark. Both blocks of an edge compute it from the same numbers, so the patch is
-// seamless inside, and so is a border between two patches drawn at the same level
-// (border_errors); borders between levels keep their skirts. The inner factor is the
-// largest of the edge factors and of the level the block's point nearest the camera needs
-// (the paper takes the smallest edge factor).
-// A skirt quad takes its block's factor along the patch border, 1 across; it is discarded
-// where the neighbour is drawn at the same level.
+// Passes the quad's corners through and sets the factors lod_factors.comp computed for it
+// this frame (terrain_factors.glsl has the method).
 layout(vertices = 4) out;
 layout(location = 0) in flat uint in_slot[];
-layout(location = 1) in flat uint in_kind[];
+layout(location = 1) in flat uint in_quad[];
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 0) out flat uint out_slot[];
 layout(location = 2) out vec2 out_s[];
 layout(location = 3) out float out_down[];
+layout(std430, binding = 13) readonly buffer Factors { uvec2 factors[]; };
 
-vec4 block_eps_at(int layer, ivec2 bl)
-{
-	uint base = (uint(layer) * pc.blocks * pc.blocks + uint(bl.y) * pc.blocks + uint(bl.x)) * 4u;
-	return vec4(block_err[base], block_err[base + 1u], block_err[base + 2u], block_err[base + 3u]);
-}
-
-vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec2(bx, by)); }
-
-// `precise` throughout: both patches at a border must reach the same factor from the same
-// numbers, so no call site may fuse operations differently.
-float seg_pixels(vec3 p, float e)
-{
-	precise vec4 a = pc.vp * vec4(p - vec3(0.0, 0.0, 0.5 * e), 1.0);
-	precise vec4 b = pc.vp * vec4(p + vec3(0.0, 0.0, 0.5 * e), 1.0);
-	if (a.w <= 1e-6 || b.w <= 1e-6)
-		return 1.0 / 0.0; // reaches behind the camera: keep full detail
-	precise vec2 d = (a.xy / a.w - b.xy / b.w) * 0.5 * pc.viewport;
-	precise float len = length(d);
-	return len;
-}
-
-vec3 sample_pos(Instance it, ivec2 m)
-{
-	precise float h = it.q2 * float(imageLoad(heights, ivec3(m + 1, it.layer)).x);
-	return pos_of(it, m, h);
-}
-
-// The coarsest factor whose error segment, measured at each of `n` points, is within tau.
-float error_factor(vec3 p[3], int n, vec4 eps, float err)
-{
-	for (int d = 4; d >= 1; d--) {
-		precise float e = eps[d - 1] + err;
-		float worst = 0.0;
-		for (int i = 0; i < n; i++)
-			worst = max(worst, seg_pixels(p[i], e));
-		if (worst <= pc.tau)
-			return float(BLOCK_CELLS >> uint(d));
-	}
-	return float(BLOCK_CELLS);
-}
-
-float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, float err)
-{
-	uint fine = (pc.mode >> 1) & 3u;
-	if (fine == FINE_FULL)
-		return float(BLOCK_CELLS);
-	ivec2 m = ivec2((a + b) * 0.5 + 0.5);
-	vec3 p = sample_pos(it, m);
-	if (fine == FINE_DISTANCE) {
-		// Baseline without error metrics: cells so that triangles are about target_px wide,
-		// rounded down to a power of two so that vertices stay on samples.
-		precise vec4 pa = pc.vp * vec4(sample_pos(it, ivec2(a)), 1.0), pb = pc.vp * vec4(sample_pos(it, ivec2(b)), 1.0);
-		if (pa.w <= 1e-6 || pb.w <= 1e-6)
-			return float(BLOCK_CELLS);
-		precise float len = length((pa.xy / pa.w - pb.xy / pb.w) * 0.5 * pc.viewport);
-		float f = clamp(len / pc.target_px, 1.0, float(BLOCK_CELLS));
-		return exp2(floor(log2(f)));
-	}
-	vec3 pts[3] = vec3[3](sample_pos(it, ivec2(a + 0.5)), p, sample_pos(it, ivec2(b + 0.5)));
-	return error_factor(pts, 3, eps, err);
-}
-
-// Errors for the edge of border block bl on `side` (0 north, 1 south, 2 west, 3 east): the
-// block's own, and, when the patch across the border at the same level is resident, its
-// block there too. Both patches then compute one factor from the same numbers, so where
-// they are drawn side by side their border vertices coincide (no T-junction, no skirt).
-void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout float err)
-{
-	int nid = neighbour_id(it, side);
-	if (nid < 0 || layer_of[nid] < 0)
-		return;
-	int last = int(pc.blocks) - 1;
-	ivec2 across = side == 0u ? ivec2(bl.x, last) : side == 1u ? ivec2(bl.x, 0) : side == 2u ? ivec2(last, bl.y)
-	             : ivec2(0, bl.y);
-	eps = max(eps, block_eps_at(layer_of[nid], across));
-	err = max(err, info[nid].err);
-}
-
-// The level needed at the block's sample nearest the camera (which sits at the origin).
-float nearest_factor(Instance it, vec2 lo, vec4 eps)
-{
-	uint fine = (pc.mode >> 1) & 3u;
-	if (fine != FINE_ERRORS)
-		return 1.0;
-	vec3 o = pos_of(it, ivec2(0), 0.0);
-	vec2 step = it.spacing * float(it.scale);
-	vec2 cam = vec2(-o.x / step.x, o.y / step.y); // camera in patch samples
-	ivec2 m = ivec2(clamp(cam, lo, lo + float(BLOCK_CELLS)) + 0.5);
-	vec3 pts[3];
-	pts[0] = sample_pos(it, m);
-	return error_factor(pts, 1, eps, it.err);
-}
+float byte_of(uint v, uint i) { return float((v >> (8u * i)) & 0xffu); }
 
 void main()
 {
@@ -123,63 +23,11 @@ void main()
 	out_down[gl_InvocationID] = in_down[gl_InvocationID];
 	if (gl_InvocationID != 0)
 		return;
-	Instance it = inst[in_slot[0]];
-	int b = int(pc.blocks);
-	if (in_kind[0] == 0u) {
-		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
-		vec4 e = block_eps(it, bl.x, bl.y), w = e, n = e, ea = e, s = e;
-		float err_w = it.err, err_n = it.err, err_e = it.err, err_s = it.err;
-		if (bl.x > 0)
-			w = max(e, block_eps(it, bl.x - 1, bl.y));
-		else
-			border_errors(it, bl, 2u, w, err_w);
-		if (bl.y > 0)
-			n = max(e, block_eps(it, bl.x, bl.y - 1));
-		else
-			border_errors(it, bl, 0u, n, err_n);
-		if (bl.x + 1 < b)
-			ea = max(e, block_eps(it, bl.x + 1, bl.y));
-		else
-			border_errors(it, bl, 3u, ea, err_e);
-		if (bl.y + 1 < b)
-			s = max(e, block_eps(it, bl.x, bl.y + 1));
-		else
-			border_errors(it, bl, 1u, s, err_s);
-		float f0 = edge_factor(it, in_s[0], in_s[2], w, err_w);  // u = 0: west
-		float f1 = edge_factor(it, in_s[0], in_s[1], n, err_n);  // v = 0: north
-		float f2 = edge_factor(it, in_s[1], in_s[3], ea, err_e); // u = 1: east
-		float f3 = edge_factor(it, in_s[2], in_s[3], s, err_s);  // v = 1: south
-		gl_TessLevelOuter[0] = f0;
-		gl_TessLevelOuter[1] = f1;
-		gl_TessLevelOuter[2] = f2;
-		gl_TessLevelOuter[3] = f3;
-		float fn = nearest_factor(it, vec2(bl) * float(BLOCK_CELLS), e);
-		gl_TessLevelInner[0] = max(max(f1, f3), fn);
-		gl_TessLevelInner[1] = max(max(f0, f2), fn);
-	} else {
-		uint j = in_kind[0] - 1u, side = j / pc.blocks;
-		int i = int(j % pc.blocks);
-		int nid = neighbour_id(it, side);
-		if ((nid >= 0 && drawn[nid] != 0u) || (pc.mode & MODE_NO_SKIRTS) != 0u) {
-			// The neighbour is drawn at this level: the border is matched, nothing to hide.
-			gl_TessLevelOuter[0] = 0.0;
-			gl_TessLevelOuter[1] = 0.0;
-			gl_TessLevelOuter[2] = 0.0;
-			gl_TessLevelOuter[3] = 0.0;
-			gl_TessLevelInner[0] = 0.0;
-			gl_TessLevelInner[1] = 0.0;
-			return;
-		}
-		ivec2 bl = side == 0u ? ivec2(i, 0) : side == 1u ? ivec2(i, b - 1) : side == 2u ? ivec2(0, i) : ivec2(b - 1, i);
-		vec4 e = block_eps(it, bl.x, bl.y);
-		float err = it.err;
-		border_errors(it, bl, side, e, err);
-		float f = edge_factor(it, in_s[0], in_s[1], e, err);
-		gl_TessLevelOuter[0] = 1.0;
-		gl_TessLevelOuter[1] = f;
-		gl_TessLevelOuter[2] = 1.0;
-		gl_TessLevelOuter[3] = f;
-		gl_TessLevelInner[0] = f;
-		gl_TessLevelInner[1] = 1.0;
-	}
+	uvec2 f = factors[in_quad[0]];
+	gl_TessLevelOuter[0] = byte_of(f.x, 0u);
+	gl_TessLevelOuter[1] = byte_of(f.x, 1u);
+	gl_TessLevelOuter[2] = byte_of(f.x, 2u);
+	gl_TessLevelOuter[3] = byte_of(f.x, 3u);
+	gl_TessLevelInner[0] = byte_of(f.y, 0u);
+	gl_TessLevelInner[1] = byte_of(f.y, 1u);
 }

@@ -45,3 +45,21 @@ int neighbour_id(Instance it, uint side)
 		return -1;
 	return int(first_id(it.level)) + q.y * n + q.x;
 }
+
+// Corner v (bit 0: +u, bit 1: +v) of quad patch k of a drawn patch, in patch sample
+// coordinates: blocks^2 tessellation blocks of 16 x 16 cells, then 4 * blocks skirt quads
+// hanging from the patch's border (north, south, west, east); `down` is 1 at a skirt's bottom.
+vec2 quad_corner(uint k, uint v, out float down)
+{
+	vec2 c = vec2(float(v & 1u), float(v >> 1u));
+	uint b = pc.blocks;
+	if (k < b * b) {
+		down = 0.0;
+		return (vec2(float(k % b), float(k / b)) + c) * float(BLOCK_CELLS);
+	}
+	uint j = k - b * b, side = j / b, i = j % b;
+	float along = (float(i) + c.x) * float(BLOCK_CELLS), last = float(pc.P - 1u);
+	down = c.y;
+	return side == 0u ? vec2(along, 0.0) : side == 1u ? vec2(along, last) : side == 2u ? vec2(0.0, along)
+	                                                                     : vec2(last, along);
+}

@@ -10,6 +10,7 @@
 #include "terrain.h"
 
 #include "lod_commands.comp.spv.h"
+#include "lod_factors.comp.spv.h"
 #include "lod_select.comp.spv.h"
 #include "terrain.frag.spv.h"
 #include "terrain.tesc.spv.h"
@@ -65,6 +66,7 @@ _Static_assert(sizeof(struct instance) == 64, "instance");
 
 struct counters {
 	uint32_t drawn, draws, wants, pad;
+	uint32_t factor_groups[4]; /* VkDispatchIndirectCommand for lod_factors.comp, then padding */
 };
 
 /* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts. */
@@ -72,8 +74,9 @@ struct counters {
 
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
- * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks. */
-#define BINDINGS 13u
+ * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
+ * 13 tessellation factors. */
+#define BINDINGS 14u
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -86,8 +89,8 @@ struct relief_terrain {
 	struct relief_patch_cache *cache;
 	struct relief_vk_buffer info;
 	VkDescriptorSetLayout set_layout;
-	VkPipelineLayout select_layout, commands_layout, draw_layout;
-	VkPipeline select, commands, draw_fill, draw_wire;
+	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
+	VkPipeline select, commands, factors, draw_fill, draw_wire;
 	VkQueryPool stats_pool;
 	struct relief_vk_timer timer; /* 0 frame start, 1 selection done, 2 frame done */
 	uint32_t count, blocks, per_patch, per_draw, max_patches, max_draws;
@@ -95,7 +98,7 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors;
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;
@@ -174,11 +177,15 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	                            &t->select_layout)) < 0 ||
 	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct commands_push),
 	                            &t->commands_layout)) < 0 ||
+	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct draw_push),
+	                            &t->factors_layout)) < 0 ||
 	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_ALL_GRAPHICS, sizeof(struct draw_push),
 	                            &t->draw_layout)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &t->select)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv),
-	                                             &t->commands)) < 0)
+	                                             &t->commands)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv),
+	                                             &t->factors)) < 0)
 		goto fail;
 	struct relief_vk_tess_pipeline_desc d = {
 		.vert = RELIEF_SPIRV(terrain_vert_spv),
@@ -215,12 +222,12 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[4] = { t->select, t->commands, t->draw_fill, t->draw_wire };
-	for (int i = 0; i < 4; i++)
+	VkPipeline pipes[5] = { t->select, t->commands, t->factors, t->draw_fill, t->draw_wire };
+	for (int i = 0; i < 5; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
-	VkPipelineLayout layouts[3] = { t->select_layout, t->commands_layout, t->draw_layout };
-	for (int i = 0; i < 3; i++)
+	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };
+	for (int i = 0; i < 4; i++)
 		if (layouts[i])
 			vkDestroyPipelineLayout(dev, layouts[i], NULL);
 	if (t->set_layout)
@@ -249,10 +256,12 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->counters, sizeof(struct counters),
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0)
+	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_patches * t->per_patch + 8, storage,
+	                                 false)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 11 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 12 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -277,7 +286,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
-		                            v->drawn.buffer };
+		                            v->drawn.buffer, v->factors.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -324,6 +333,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->split[1]);
 	relief_vk_buffer_finish(vk, &v->instances);
 	relief_vk_buffer_finish(vk, &v->drawn);
+	relief_vk_buffer_finish(vk, &v->factors);
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);
@@ -419,6 +429,15 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
 	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
 	vkCmdDispatch(cmd, 1, 1, 1);
+	/* Tessellation factors of every drawn quad, as many groups as the drawn count needs. */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
+	dp.mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
+	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
+	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
 	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
