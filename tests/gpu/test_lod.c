@@ -188,23 +188,54 @@ struct pose {
 	double eye[3], at[3];
 };
 
+enum { BW = 320, BH = 180 }; /* bound_scene size */
+
+/* A BW x BH scene of a DEM packed at 1 m, its finest level decoded, two depth images. */
+struct bound_scene {
+	struct scene s;
+	uint32_t fw, fh;
+	float *finest, *ref, *lod;
+};
+
+static void bound_open(struct bound_scene *b, enum test_dem dem)
+{
+	scene_open(&b->s, dem, 1.0, BW, BH);
+	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
+	b->finest = malloc(sizeof(float) * b->fw * b->fh);
+	assert_int_equal(relief_decode_level(b->s.f, b->s.f->hdr.levels - 1, 0, b->finest, NULL), 0);
+	b->ref = malloc(sizeof(float) * BW * BH);
+	b->lod = malloc(sizeof(float) * BW * BH);
+}
+
+static void bound_close(struct bound_scene *b)
+{
+	free(b->finest);
+	free(b->ref);
+	free(b->lod);
+	scene_close(&b->s);
+	gpu_test_assert_clean(vk);
+}
+
+/* The view of a pose, with a tau fine enough for a full-resolution reference. */
+static struct relief_view pose_view(const struct pose *p)
+{
+	return (struct relief_view){
+		.eye = { p->eye[0], p->eye[1], p->eye[2] },
+		.target = { p->at[0], p->at[1], p->at[2] },
+		.fovy = 50 * M_PI / 180, .width = BW, .height = BH, .znear = 5, .zfar = 4e5, .tau = 0.001,
+	};
+}
+
 static void watertight_and_error_bound(enum test_dem dem, const struct pose *poses, size_t n_poses)
 {
-	enum { W = 320, H = 180 };
-	struct scene s;
-	scene_open(&s, dem, 1.0, W, H);
-	uint32_t fw, fh;
-	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
-	float *ref = malloc(sizeof(float) * W * H), *lod = malloc(sizeof(float) * W * H);
+	struct bound_scene b;
+	bound_open(&b, dem);
+	struct scene s = b.s;
+	uint32_t fw = b.fw, fh = b.fh;
+	float *finest = b.finest, *ref = b.ref, *lod = b.lod;
 	const double taus[] = { 1.0, 4.0 };
 	for (size_t p = 0; p < n_poses; p++) {
-		struct relief_view v = {
-			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
-			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
-			.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 4e5, .tau = 0.001,
-		};
+		struct relief_view v = pose_view(&poses[p]);
 		struct relief_terrain_stats st;
 		render(&s, &v, ref, &st);
 		uint32_t ref_patches = st.patches;
@@ -217,17 +248,13 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 			              c.worst_px, c.worst_m, c.both);
 			assert_int_equal(c.holes, 0);
 			assert_true(ref_patches > 0 && st.patches > 0);
-			assert_true(c.both > W * H / 8); /* the view really shows terrain */
+			assert_true(c.both > BW * BH / 8); /* the view really shows terrain */
 			/* The bound is against the original; the reference is the decoded finest level,
 			 * itself within delta_L of it: a few hundredths of a pixel at these distances. */
 			assert_true(c.worst_px <= v.tau + 0.05);
 		}
 	}
-	free(finest);
-	free(ref);
-	free(lod);
-	scene_close(&s);
-	gpu_test_assert_clean(vk);
+	bound_close(&b);
 }
 
 /* Patches drawn side by side at one level tessellate their shared border identically and put
@@ -237,22 +264,15 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
  * before border_errors() existed in terrain.tesc, these poses showed 18, 2, 3 and 11 holes. */
 static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n_poses)
 {
-	enum { W = 320, H = 180 };
-	struct scene s;
-	scene_open(&s, dem, 1.0, W, H);
-	uint32_t fw, fh;
-	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
-	float *ref = malloc(sizeof(float) * W * H), *lod = malloc(sizeof(float) * W * H);
+	struct bound_scene b;
+	bound_open(&b, dem);
+	struct scene s = b.s;
+	uint32_t fw = b.fw, fh = b.fh;
+	float *finest = b.finest, *ref = b.ref, *lod = b.lod;
 	uint32_t *ids = malloc(4 * s.f->hdr.patch_count);
 	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
 	for (size_t p = 0; p < n_poses; p++) {
-		struct relief_view v = {
-			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
-			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
-			.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 4e5, .tau = 0.001,
-		};
+		struct relief_view v = pose_view(&poses[p]);
 		struct relief_terrain_stats st;
 		render(&s, &v, ref, &st);
 		uint64_t full_triangles = st.triangles;
@@ -271,16 +291,12 @@ static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n
 		              c.both);
 		assert_true(n >= 4 && (levels & (levels - 1)) == 0); /* several patches, one level */
 		assert_true(st.triangles < full_triangles);
-		assert_true(c.both > W * H / 8);
+		assert_true(c.both > BW * BH / 8);
 		assert_int_equal(c.holes, 0);
 		assert_true(c.worst_px <= v.tau + 0.05);
 	}
 	free(ids);
-	free(finest);
-	free(ref);
-	free(lod);
-	scene_close(&s);
-	gpu_test_assert_clean(vk);
+	bound_close(&b);
 }
 
 static void test_sealed_borders(void **state)
