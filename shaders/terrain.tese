@@ -2,9 +2,11 @@
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
+#include "terrain_factors.glsl"
 // Vertices land on samples (factors are 16 / 2^d), displaced by the decoded heights;
 // positions are camera-relative, so floats stay small at any world coordinates, and formed
-// by pos_of() so that patches sharing a border put its vertices at the same bits.
+// by pos_of() so that patches sharing a border put its vertices at the same bits. A border
+// vertex next to a coarser patch takes its height on that patch's drawn edge.
 layout(quads, equal_spacing, ccw) in;
 layout(location = 0) in flat uint in_slot[];
 layout(location = 2) in vec2 in_s[];
@@ -22,6 +24,10 @@ void main()
 	                 gl_TessCoord.y);
 	ivec2 si = clamp(ivec2(s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
 	precise float h = it.q2 * float(imageLoad(heights, ivec3(si + 1, it.layer)).x);
+	int last = int(pc.P) - 1;
+	float hs;
+	if ((si.x == 0 || si.y == 0 || si.x == last || si.y == last) && sealed_height(it, si, hs))
+		h = hs; // on a coarser patch's drawn edge: no crack between levels
 	out_normal = imageLoad(normals, ivec3(si, it.layer)).xyz;
 	out_s = vec2(si);
 	out_layer = it.layer;

@@ -16,6 +16,7 @@ layout(push_constant) uniform DrawPush {
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
 	float target_px;  // FINE_DISTANCE: wanted triangle edge length, pixels
+	uint ratio;       // tolerance growth per coarser level (the codec's k)
 } pc;
 
 const uint FINE_ERRORS = 0u;   // block errors and tau (relief)
@@ -34,16 +35,53 @@ vec3 pos_of(Instance it, ivec2 m, float h)
 	return vec3(x, -y, z);
 }
 
-// The patch at the same level across border `side` (0 north, 1 south, 2 west, 3 east), or
-// -1 beyond the terrain's edge.
+// The position, at the patch's level, of its neighbour across border `side` (0 north,
+// 1 south, 2 west, 3 east); outside [0, 2^level) beyond the terrain's edge.
+ivec2 neighbour_at(Instance it, uint side)
+{
+	return ivec2(it.px, it.py) + (side == 0u ? ivec2(0, -1) : side == 1u ? ivec2(0, 1)
+	                            : side == 2u ? ivec2(-1, 0) : ivec2(1, 0));
+}
+
+// The patch at the same level across border `side`, or -1 beyond the terrain's edge.
 int neighbour_id(Instance it, uint side)
 {
 	int n = 1 << it.level;
-	ivec2 q = ivec2(it.px, it.py) + (side == 0u ? ivec2(0, -1) : side == 1u ? ivec2(0, 1)
-	                               : side == 2u ? ivec2(-1, 0) : ivec2(1, 0));
+	ivec2 q = neighbour_at(it, side);
 	if (q.x < 0 || q.y < 0 || q.x >= n || q.y >= n)
 		return -1;
 	return int(first_id(it.level)) + q.y * n + q.x;
+}
+
+// When the neighbour at the same level is not drawn but one of its ancestors is, that
+// coarser patch's id and the level difference j >= 1; otherwise 0 (same level drawn,
+// drawn finer, culled, or beyond the edge).
+uint coarser_across(Instance it, uint side, out uint cid)
+{
+	cid = 0u;
+	int nid = neighbour_id(it, side);
+	if (nid < 0 || drawn[nid] != 0u)
+		return 0u;
+	ivec2 q = neighbour_at(it, side);
+	for (uint j = 1u; j <= it.level; j++) {
+		uint l = it.level - j;
+		uint a = first_id(l) + uint(q.y >> j) * (1u << l) + uint(q.x >> j);
+		if (drawn[a] != 0u) {
+			cid = a;
+			return j;
+		}
+	}
+	return 0u;
+}
+
+// Metres per quantum j levels coarser than `it`: the same sequence of products as the
+// selection's (lod_select.comp), so the bits equal the coarser patch's own.
+float coarser_q2(Instance it, uint j)
+{
+	float q2 = it.q2;
+	for (uint k = 0u; k < j; k++)
+		q2 *= float(pc.ratio);
+	return q2;
 }
 
 // Corner v (bit 0: +u, bit 1: +v) of quad patch k of a drawn patch, in patch sample

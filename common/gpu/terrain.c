@@ -45,8 +45,9 @@ struct draw_push {
 	float sun[4];
 	float hrange[2];
 	float target_px;
+	uint32_t ratio;
 };
-_Static_assert(sizeof(struct draw_push) == 124, "draw push block");
+_Static_assert(sizeof(struct draw_push) == 128, "draw push block");
 
 struct patch_info {
 	float hmin, hmax, err, skirt;
@@ -119,9 +120,10 @@ static int layout_with_push(struct relief_vk *vk, VkDescriptorSetLayout set, VkS
 	return relief_vk_check(vk, vkCreatePipelineLayout(vk->device, &li, NULL, out), "vkCreatePipelineLayout");
 }
 
-/* Skirt depth: how far below its border a patch's skirt reaches. Neighbours approximate the
- * same original within their own bounds; this patch's full error at its coarsest block
- * simplification (Err(P) + max eps_4), doubled, covers a neighbour of similar accuracy. */
+/* Skirt depth: how far below its border a patch's skirt reaches. Skirts hang only from the
+ * terrain's outer edge (inside, borders are sealed: docs/lod.md), as a curtain that hides
+ * the gap under the edge's simplified outline: the patch's full error at its coarsest block
+ * simplification (Err(P) + max eps_4), doubled, plus the finest tolerance. */
 static float skirt_depth(const struct relief_file *f, uint32_t id, const struct relief_patch_record *r)
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
@@ -394,6 +396,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.sun = { 0.45f, 0.3f, 0.84f, 0.0f },
 		.hrange = { (float)f->hdr.height_min, (float)f->hdr.height_max },
 		.target_px = opts->target_px > 0 ? opts->target_px : 1.0f,
+		.ratio = f->hdr.ratio,
 	};
 	memcpy(dp.vp, sp.vp, sizeof(dp.vp));
 	struct commands_push cp = { t->per_patch, t->per_draw, t->max_draws };
