@@ -12,9 +12,12 @@
  * frames. The full-resolution render runs first and is the reference: where it is itself
  * more than REF_NOISE_PX off the surface (a near edge-on triangle at a silhouette, whose
  * depth the rasteriser interpolates badly), the pixel measures the rasteriser, not the LOD,
- * and is left out of every method's statistics; the count is reported. Popping: the RMS over pixels of the change of that (signed) error between
- * consecutive frames, averaged over the frame pairs (the DSS paper's measure, per pixel).
- * GPU time: timestamps around selection, drawing and copy-out, per frame; median and p95. */
+ * and is left out of every method's statistics; the count is reported.
+ * Popping: the RMS over pixels of the change of that (signed) error between consecutive
+ * frames — each key pose and the frame after it, 1/60 s later at 250 m/s — averaged over
+ * the pairs (the DSS paper's measure, per pixel).
+ * GPU time: timestamps around LOD compute, drawing and copy-out, per frame; median and p95
+ * over all frames of all runs, the runs taken in turn over the configurations. */
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -78,21 +81,71 @@ static double parse_list(const char *s, double *out, int cap, int *n)
 	return *n > 0 ? 0 : -1;
 }
 
-static int measure(struct run *r, const struct config *c, struct result *res)
+/* Errors of one rendered frame (depth in the target) against the finest surface: signed
+ * per-pixel error in `err` (NaN where there is no terrain or the reference is noise), and
+ * the statistics accumulated into `a`. Frame f of the run's sequence. */
+struct error_stats {
+	double worst, sum2;
+	uint64_t *hist; /* 0.01 px bins up to 100 px, for the 99.9th percentile */
+};
+enum { BINS = 10001 };
+
+static void frame_errors(struct run *r, const struct config *c, const struct relief_view *v, uint32_t f, float *err,
+                         struct error_stats *a, struct result *res)
 {
 	const uint32_t W = r->target.width, H = r->target.height;
-	double *ms = calloc(r->frames, sizeof(double)), *sel = calloc(r->frames, sizeof(double));
+	const float *depth = r->target.depth_readback.map;
+	float *ref = r->ref_err + (size_t)f * W * H;
+	for (uint32_t y = 0; y < H; y++)
+		for (uint32_t x = 0; x < W; x++) {
+			size_t k = (size_t)y * W + x;
+			err[k] = NAN;
+			if (!(depth[k] > 0.0f)) /* reversed Z: 0 is the background */
+				continue;
+			struct relief_vec3 p = relief_view_unproject(v, (int)x, (int)y, depth[k]);
+			double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p);
+			double px = relief_view_segment_px(v, p, fabs(dz));
+			if (c->reference)
+				ref[k] = isfinite(px) ? (float)px : NAN;
+			else if (ref[k] > REF_NOISE_PX) {
+				res->excluded++;
+				continue;
+			}
+			if (!isfinite(px))
+				continue;
+			err[k] = (float)(dz < 0 ? -px : px);
+			a->worst = fmax(a->worst, px);
+			a->hist[px >= 100.0 ? BINS - 1 : (size_t)(px * 100.0)]++;
+			a->sum2 += px * px;
+			res->pixels++;
+		}
+}
+
+/* RMS over pixels showing terrain in both of the change of the signed error; -1 if none. */
+static double error_change(const float *a, const float *b, size_t n)
+{
+	double sum = 0;
+	uint64_t count = 0;
+	for (size_t k = 0; k < n; k++)
+		if (!isnan(a[k]) && !isnan(b[k])) {
+			sum += ((double)a[k] - b[k]) * ((double)a[k] - b[k]);
+			count++;
+		}
+	return count ? sqrt(sum / count) : -1;
+}
+
+/* Renders the flight once with configuration c; GPU and selection times of its frames go
+ * to ms[] and sel[] (2 x frames each). With `analyse`, also the errors and popping. */
+static int measure(struct run *r, const struct config *c, bool analyse, double *ms, double *sel, struct result *res)
+{
+	const uint32_t W = r->target.width, H = r->target.height, n = 2 * r->frames;
 	float *err = malloc(sizeof(float) * W * H), *prev = malloc(sizeof(float) * W * H);
+	struct error_stats a = { .hist = calloc(BINS, sizeof(uint64_t)) };
 	struct relief_terrain_view *tv = NULL;
-	int ret = ms && sel && err && prev ? relief_terrain_view_create(r->terrain, &tv) : -ENOMEM;
-	double tri = 0, patches = 0, worst = 0, sum2 = 0, pop = 0;
-	/* Histogram of per-pixel errors for the 99.9th percentile, 0.01 px bins up to 100 px. */
-	enum { BINS = 10001 };
-	uint64_t *hist = calloc(BINS, sizeof(uint64_t));
-	if (!hist)
-		ret = -ENOMEM;
+	int ret = err && prev && a.hist ? relief_terrain_view_create(r->terrain, &tv) : -ENOMEM;
+	double tri = 0, patches = 0, pop = 0;
 	uint32_t pairs = 0;
-	for (uint32_t i = 0; i < r->frames && ret == 0; i++) {
+	for (uint32_t i = 0; i < n && ret == 0; i++) {
 		struct relief_view view = r->views[i], *v = &view;
 		view.tau = c->param > 0 && c->opts.fine == RELIEF_FINE_ERRORS ? c->param : 1.0; /* the tessellator's tau */
 		struct relief_terrain_stats st;
@@ -105,75 +158,52 @@ static int measure(struct run *r, const struct config *c, struct result *res)
 		sel[i] = st.select_ns / 1e6;
 		tri += (double)st.triangles;
 		patches += st.patches;
-		const float *depth = r->target.depth_readback.map;
-		double dsum = 0;
-		uint64_t dn = 0;
-		const float *ref = c->reference ? NULL : r->ref_err + (size_t)i * W * H;
-		for (uint32_t y = 0; y < H; y++)
-			for (uint32_t x = 0; x < W; x++) {
-				size_t k = (size_t)y * W + x;
-				float e = NAN;
-				if (depth[k] > 0.0f) { /* reversed Z: 0 is the background */
-					struct relief_vec3 p = relief_view_unproject(v, (int)x, (int)y, depth[k]);
-					double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p);
-					double px = relief_view_segment_px(v, p, fabs(dz));
-					if (c->reference)
-						r->ref_err[i * (size_t)W * H + k] = isfinite(px) ? (float)px : NAN;
-					if (ref && ref[k] > REF_NOISE_PX) {
-						res->excluded++;
-					} else if (isfinite(px)) {
-						e = (float)(dz < 0 ? -px : px);
-						worst = fmax(worst, px);
-						hist[px >= 100.0 ? BINS - 1 : (size_t)(px * 100.0)]++;
-						sum2 += px * px;
-						res->pixels++;
-					}
-				}
-				if (i > 0 && !isnan(e) && !isnan(prev[k])) {
-					dsum += ((double)e - prev[k]) * ((double)e - prev[k]);
-					dn++;
-				}
-				err[k] = e;
+		if (!analyse)
+			continue;
+		frame_errors(r, c, v, i, err, &a, res);
+		if (i % 2 == 1) { /* the frame after a key pose: popping */
+			double d = error_change(prev, err, (size_t)W * H);
+			if (d >= 0) {
+				pop += d;
+				pairs++;
 			}
-		if (i > 0 && dn) {
-			pop += sqrt(dsum / dn);
-			pairs++;
 		}
 		float *t = prev;
 		prev = err;
 		err = t;
 	}
 	if (ret == 0) {
-		res->ms_median = bench_median(ms, r->frames);
-		res->ms_p95 = ms[(size_t)ceil(0.95 * r->frames) - 1]; /* sorted by bench_median */
-		res->select_ms = bench_median(sel, r->frames);
-		res->triangles = tri / r->frames;
-		res->patches = patches / r->frames;
-		res->max_err = worst;
+		res->triangles = tri / n;
+		res->patches = patches / n;
+	}
+	if (ret == 0 && analyse) {
+		res->max_err = a.worst;
 		uint64_t seen = 0;
 		for (size_t b = 0; b < BINS; b++) {
-			seen += hist[b];
+			seen += a.hist[b];
 			if (seen * 1000 >= res->pixels * 999) {
 				res->p999_err = (b + 1) / 100.0;
 				break;
 			}
 		}
-		res->rms_err = res->pixels ? sqrt(sum2 / res->pixels) : 0;
+		res->rms_err = res->pixels ? sqrt(a.sum2 / res->pixels) : 0;
 		res->popping = pairs ? pop / pairs : 0;
 	}
 	relief_terrain_view_destroy(tv);
-	free(hist);
-	free(ms);
-	free(sel);
+	free(a.hist);
 	free(err);
 	free(prev);
 	return ret;
 }
 
-/* A straight, low flight across the terrain's middle, looking ahead and down. It starts a
- * fraction of a sample off the patch grid: a camera exactly in the plane of a patch border
- * sees that border's skirt edge-on, and the resulting sliver triangles can put single
- * pixels at a wrong depth (docs/lod.md, known issues). */
+/* A straight, low flight across the terrain's middle, looking ahead and down: `frames` key
+ * poses a tenth of the map apart, each followed by the next frame of a flight at
+ * FLIGHT_SPEED seen at FRAME_RATE (views 2i and 2i + 1), so that popping is measured between
+ * frames as close as a real image generator renders them. It starts a fraction of a sample
+ * off the patch grid, away from the planes of patch borders. */
+#define FLIGHT_SPEED 250.0 /* m/s */
+#define FRAME_RATE 60.0    /* Hz */
+
 static void flight(const struct relief_file *f, uint32_t frames, uint32_t w, uint32_t h, struct relief_view *views)
 {
 	const struct relief_header *hd = &f->hdr;
@@ -182,8 +212,9 @@ static void flight(const struct relief_file *f, uint32_t frames, uint32_t w, uin
 	double dx = 0.10 * ex / frames, dy = 0.10 * ey / frames; /* north-east, a tenth of the map */
 	double z = hd->height_min + 0.8 * (hd->height_max - hd->height_min) + 100.0;
 	double reach = sqrt(ex * ex + ey * ey) + 10 * (hd->height_max - hd->height_min);
-	for (uint32_t i = 0; i < frames; i++) {
-		double x = x0 + dx * i, y = y0 + dy * i;
+	double step = FLIGHT_SPEED / FRAME_RATE / sqrt(dx * dx + dy * dy); /* of (dx, dy) per frame */
+	for (uint32_t i = 0; i < 2 * frames; i++) {
+		double t = i / 2 + (i % 2 ? step : 0.0), x = x0 + dx * t, y = y0 + dy * t;
 		views[i] = (struct relief_view){
 			.eye = { x, y, z },
 			.target = { x + 0.2 * ex, y + 0.2 * ey, z - 0.06 * sqrt(ex * ex + ey * ey) },
@@ -199,10 +230,10 @@ int bench_lod(int argc, char **argv)
 		{ "json", no_argument, NULL, 'J' }, { "frames", required_argument, NULL, 'n' },
 		{ "size", required_argument, NULL, 's' }, { "taus", required_argument, NULL, 'T' },
 		{ "targets", required_argument, NULL, 'P' }, { "device", required_argument, NULL, 'd' },
-		{ "help", no_argument, NULL, 'h' }, { 0 },
+		{ "runs", required_argument, NULL, 'r' }, { "help", no_argument, NULL, 'h' }, { 0 },
 	};
 	bool json = false;
-	uint32_t frames = 8, w = 480, h = 270;
+	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	int ntau = 5, ntarget = 5;
 	const char *device = NULL;
@@ -212,7 +243,11 @@ int bench_lod(int argc, char **argv)
 		switch (ch) {
 		case 'J': json = true; break;
 		case 'n':
-			if (!cli_parse_u32("bench lod", "--frames", optarg, 2, 1000, &frames))
+			if (!cli_parse_u32("bench lod", "--frames", optarg, 1, 1000, &frames))
+				return EXIT_USAGE;
+			break;
+		case 'r':
+			if (!cli_parse_u32("bench lod", "--runs", optarg, 1, 100, &runs))
 				return EXIT_USAGE;
 			break;
 		case 's':
@@ -229,12 +264,14 @@ int bench_lod(int argc, char **argv)
 			break;
 		case 'd': device = optarg; break;
 		case 'h':
-			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--size WxH] [--taus a,b,..]\n"
-			       "                        [--targets a,b,..] [--device DEV]\n"
-			       "A fixed flight (default 8 frames at 480x270) with relief's LOD at each tau (default\n"
-			       "0.5,1,2,4,8 px) and the baselines full-grid, distance (target triangle widths, default\n"
-			       "0.5,1,2,4,8 px) and chunked (each tau): GPU ms per frame (median, p95), triangles,\n"
-			       "patches, max and RMS screen-space error against the full-resolution surface, popping.\n");
+			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
+			       "                        [--taus a,b,..] [--targets a,b,..] [--device DEV]\n"
+			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
+			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
+			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
+			       "tau): GPU ms per frame (median, p95 over N runs, default 3, taken in turn), triangles,\n"
+			       "patches, max and RMS screen-space error against the full-resolution surface, and\n"
+			       "popping between each key pose and its next frame.\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -255,10 +292,8 @@ int bench_lod(int argc, char **argv)
 	int status = 1, ret;
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_patch_cache_options co = { .budget_bytes = 1ull << 30 };
-	r.views = calloc(frames, sizeof(*r.views));
-	r.ref_err = malloc(sizeof(float) * frames * w * h);
-	for (size_t k = 0; r.ref_err && k < (size_t)frames * w * h; k++)
-		r.ref_err[k] = NAN;
+	r.views = calloc(2 * frames, sizeof(*r.views));
+	r.ref_err = malloc(sizeof(float) * 2 * frames * w * h);
 	relief_level_extent(&f->hdr, f->hdr.levels - 1, &r.fw, &r.fh);
 	finest = malloc(sizeof(float) * r.fw * r.fh);
 	if (!r.views || !r.ref_err || !finest || (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
@@ -294,32 +329,56 @@ int bench_lod(int argc, char **argv)
 		cfg[n++] = (struct config){ "chunked", taus[i], { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }, false };
 	if (!json) {
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
-		printf("relief bench lod: %s, flight of %u frames at %ux%u on %s (%s), cache warm, GPU time from "
-		       "timestamps\n", base, frames, w, h, r.vk->props.deviceName,
-		       relief_vk_device_type_name(r.vk->props.deviceType));
+		printf("relief bench lod: %s, flight of %u key poses (%u frames, popping between frames %.1f m apart) "
+		       "at %ux%u on %s (%s), cache warm, GPU time from timestamps, %u runs\n", base, frames, 2 * frames,
+		       FLIGHT_SPEED / FRAME_RATE, w, h, r.vk->props.deviceName,
+		       relief_vk_device_type_name(r.vk->props.deviceType), runs);
 		printf("%-10s %7s %10s %10s %9s %11s %8s %10s %9s %10s %10s %9s\n", "method", "tau/px", "ms_median", "ms_p95",
 		       "select_ms", "triangles", "patches", "max_err", "p99.9", "rms_err", "popping", "excluded");
 	}
-	for (int i = 0; i < n; i++) {
-		struct result res = { 0 };
-		if ((ret = measure(&r, &cfg[i], &res)) < 0) {
-			fprintf(stderr, "relief bench lod: %s: %s\n", cfg[i].method, strerror(-ret));
-			goto out;
+	/* Runs go round the configurations, so that a slow spell of the machine spreads over
+	 * all of them; errors are measured on the first run (they do not change). */
+	const size_t per_run = 2 * (size_t)frames;
+	struct result res[1 + 8 * 3] = { 0 };
+	double *ms = calloc((size_t)n * runs * per_run, sizeof(double)), *sel = calloc((size_t)n * runs * per_run, sizeof(double));
+	if (!ms || !sel) {
+		fprintf(stderr, "relief bench lod: out of memory\n");
+		free(ms);
+		free(sel);
+		goto out;
+	}
+	for (uint32_t run = 0; run < runs; run++)
+		for (int i = 0; i < n; i++) {
+			size_t at = ((size_t)i * runs + run) * per_run;
+			if ((ret = measure(&r, &cfg[i], run == 0, ms + at, sel + at, &res[i])) < 0) {
+				fprintf(stderr, "relief bench lod: %s: %s\n", cfg[i].method, strerror(-ret));
+				free(ms);
+				free(sel);
+				goto out;
+			}
 		}
+	for (int i = 0; i < n; i++) {
+		double *m = ms + (size_t)i * runs * per_run, *sl = sel + (size_t)i * runs * per_run;
+		size_t count = runs * per_run;
+		res[i].ms_median = bench_median(m, count);
+		res[i].ms_p95 = m[(size_t)ceil(0.95 * count) - 1]; /* sorted by bench_median */
+		res[i].select_ms = bench_median(sl, count);
 		if (json)
 			printf("{\"method\":\"%s\",\"tau_px\":%g,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,"
 			       "\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,\"max_err_px\":%.4f,\"p999_err_px\":%.2f,"
-			       "\"rms_err_px\":%.4f,\"popping_px\":%.4f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%u,\"width\":%u,\"height\":%u,"
-			       "\"device\":\"%s\"}\n",
-			       cfg[i].method, cfg[i].param, res.ms_median, res.ms_p95, res.select_ms, res.triangles,
-			       res.patches, res.max_err, res.p999_err, res.rms_err, res.popping, (unsigned long long)res.pixels,
-			       (unsigned long long)res.excluded, frames, w, h, r.vk->props.deviceName);
+			       "\"rms_err_px\":%.4f,\"popping_px\":%.4f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%zu,"
+			       "\"runs\":%u,\"width\":%u,\"height\":%u,\"device\":\"%s\"}\n",
+			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].select_ms, res[i].triangles,
+			       res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
+			       (unsigned long long)res[i].pixels, (unsigned long long)res[i].excluded, per_run, runs, w, h,
+			       r.vk->props.deviceName);
 		else
 			printf("%-10s %7g %10.2f %10.2f %9.3f %11.0f %8.1f %10.3f %9.2f %10.3f %10.3f %9llu\n", cfg[i].method,
-			       cfg[i].param, res.ms_median, res.ms_p95, res.select_ms, res.triangles, res.patches, res.max_err,
-			       res.p999_err, res.rms_err, res.popping, (unsigned long long)res.excluded);
-		fflush(stdout);
+			       cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].select_ms, res[i].triangles, res[i].patches,
+			       res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping, (unsigned long long)res[i].excluded);
 	}
+	free(ms);
+	free(sel);
 	status = 0;
 out:
 	relief_terrain_destroy(r.terrain);

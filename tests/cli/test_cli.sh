@@ -128,10 +128,13 @@ expect_text snap-same-point-named "look point"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
-vkcheck bench-lod 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --size 64x36 --taus 1 --targets 4 --json
+vkcheck bench-lod 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 2 --size 64x36 --taus 1 --targets 4 --json
 n=$(grep -c '"method":' <<<"$LAST_OUT")
 [ "$n" -eq 4 ] || { echo "FAIL bench lod records: $n"; fails=$((fails + 1)); }
 expect_text bench-lod-fields '"method":"relief","tau_px":1,"gpu_ms_median":'
 expect_text bench-lod-error-fields '"max_err_px":'
+expect_text bench-lod-runs '"frames":4,"runs":2,'
+vkcheck bench-lod-zero-runs 2 "$relief" bench lod "$tmp/ps.relief" --runs 0
+expect_text bench-lod-zero-runs-named "--runs"
 echo "cli: $passes passed, $fails failed"
 [ "$fails" -eq 0 ]
