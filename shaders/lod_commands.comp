@@ -6,18 +6,19 @@
 layout(local_size_x = 64) in;
 
 struct DrawCmd { uint vertex_count, instance_count, first_vertex, first_instance; };
-layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint pad; uvec4 factor_groups; } counters;
+layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint curtains; uvec4 factor_groups; } counters;
 layout(std430, binding = 8) writeonly buffer Cmds { DrawCmd cmds[]; };
 
 layout(push_constant) uniform Push {
-	uint per_patch; // quad patches (blocks and skirts) per drawn patch
+	uint per_patch; // block quads per drawn patch (blocks^2)
+	uint blocks;    // curtain quads per curtain
 	uint per_draw;  // quad patches per draw record
 	uint max_draws;
 } pc;
 
 void main()
 {
-	uint total = counters.drawn * pc.per_patch;
+	uint total = counters.drawn * pc.per_patch + counters.curtains * pc.blocks;
 	uint draws = min((total + pc.per_draw - 1u) / pc.per_draw, pc.max_draws);
 	for (uint g = gl_GlobalInvocationID.x; g < draws; g += gl_WorkGroupSize.x) {
 		uint first = g * pc.per_draw;

@@ -9,17 +9,18 @@
 // 0 or powers of two up to 16, stored as bytes: outer in x, inner in y.
 layout(local_size_x = 64) in;
 
-layout(std430, binding = 5) readonly buffer Counters { uint drawn; uint draws; uint wants; uint pad; } counters;
 layout(std430, binding = 13) writeonly buffer Factors { uvec2 factors[]; };
 
 void main()
 {
 	uint q = gl_GlobalInvocationID.x;
-	if (q >= counters.drawn * pc.per_patch)
+	if (q >= counters.drawn_count * pc.per_patch + counters.curtains * pc.blocks)
 		return;
+	uint slot, k;
+	quad_of(q, slot, k);
 	vec4 o;
 	vec2 i;
-	quad_factors(inst[q / pc.per_patch], q % pc.per_patch, o, i);
+	quad_factors(inst[slot], k, o, i);
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);
 	factors[q] = uvec2(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u));

@@ -14,10 +14,11 @@ layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 2) readonly buffer SplitPrev { uint split_prev[]; };
 layout(std430, binding = 3) writeonly buffer SplitNext { uint split_next[]; };
 layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
-layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint pad; } counters;
+layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint curtains; } counters;
 layout(std430, binding = 6) writeonly buffer Wants { uint want[]; };
 layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
+layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
 
 layout(push_constant) uniform Push {
 	mat4 vp;          // camera-relative view-projection
@@ -142,4 +143,11 @@ void main()
 	inst[n] = it;
 	use_frame[id] = pc.frame;
 	drawn[id] = 1u;
+	// Sides on the terrain's outer edge hang a curtain (the only skirts: inside, borders
+	// are sealed).
+	for (uint s = 0u; s < 4u; s++) {
+		bool edge = s == 0u ? py == 0u : s == 1u ? py + 1u == side : s == 2u ? px == 0u : px + 1u == side;
+		if (edge)
+			curtain[atomicAdd(counters.curtains, 1u)] = n | (s << 30u);
+	}
 }

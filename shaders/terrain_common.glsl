@@ -21,6 +21,10 @@ struct Instance {
 
 uint first_id(uint l) { return ((1u << (2u * l)) - 1u) / 3u; }
 
+// A curtain record (lod_select.comp): drawn patch slot in bits 0-29, its side on the
+// terrain's outer edge (0 north, 1 south, 2 west, 3 east) in bits 30-31.
+const uint CURTAIN_SLOT_MASK = 0x3fffffffu;
+
 // Static per-patch data from the file: heights of the reconstruction, Err(P), skirt depth
 // (negative for patches with nothing to draw).
 struct PatchInfo {

@@ -2,7 +2,9 @@
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
 layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
+layout(std430, binding = 5) readonly buffer Counters { uint drawn_count; uint draws; uint wants; uint curtains; } counters;
 layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame
+layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 10, rgba8_snorm) uniform readonly image2DArray normals;
 layout(std430, binding = 11) readonly buffer Errors { float block_err[]; };
@@ -12,7 +14,7 @@ layout(push_constant) uniform DrawPush {
 	vec2 viewport;    // pixels
 	float tau;        // pixels
 	float cam_z;      // metres
-	uint P, blocks, per_patch, mode; // bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no skirts
+	uint P, blocks, per_patch, mode; // per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no skirts
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
 	float target_px;  // FINE_DISTANCE: wanted triangle edge length, pixels
@@ -82,6 +84,23 @@ float coarser_q2(Instance it, uint j)
 	for (uint k = 0u; k < j; k++)
 		q2 *= float(pc.ratio);
 	return q2;
+}
+
+// Quad patch q of the frame: the drawn patches' blocks first (per_patch each, in instance
+// order), then the curtains (`blocks` quads each). Its instance slot, and k as quad_corner()
+// counts a patch's quads: blocks, then per side (north, south, west, east) `blocks` skirt
+// quads.
+void quad_of(uint q, out uint slot, out uint k)
+{
+	uint block_quads = counters.drawn_count * pc.per_patch;
+	if (q < block_quads) {
+		slot = q / pc.per_patch;
+		k = q % pc.per_patch;
+		return;
+	}
+	uint c = (q - block_quads) / pc.blocks, rec = curtain[c];
+	slot = rec & CURTAIN_SLOT_MASK;
+	k = pc.per_patch + (rec >> 30u) * pc.blocks + (q - block_quads) % pc.blocks;
 }
 
 // Corner v (bit 0: +u, bit 1: +v) of quad patch k of a drawn patch, in patch sample

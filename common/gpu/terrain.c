@@ -34,7 +34,7 @@ struct select_push {
 _Static_assert(sizeof(struct select_push) == 128, "select push block");
 
 struct commands_push {
-	uint32_t per_patch, per_draw, max_draws;
+	uint32_t per_patch, blocks, per_draw, max_draws;
 };
 
 struct draw_push {
@@ -66,7 +66,7 @@ struct instance {
 _Static_assert(sizeof(struct instance) == 64, "instance");
 
 struct counters {
-	uint32_t drawn, draws, wants, pad;
+	uint32_t drawn, draws, wants, curtains;
 	uint32_t factor_groups[4]; /* VkDispatchIndirectCommand for lod_factors.comp, then padding */
 };
 
@@ -76,8 +76,8 @@ struct counters {
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
- * 13 tessellation factors. */
-#define BINDINGS 14u
+ * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches). */
+#define BINDINGS 15u
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -94,12 +94,14 @@ struct relief_terrain {
 	VkPipeline select, commands, factors, draw_fill, draw_wire;
 	VkQueryPool stats_pool;
 	struct relief_vk_timer timer; /* 0 frame start, 1 selection done, 2 frame done */
-	uint32_t count, blocks, per_patch, per_draw, max_patches, max_draws;
+	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
+	 * at most (every layer drawn, each with four curtains: a loose bound) */
+	uint32_t count, blocks, per_patch, per_draw, max_patches, max_quads, max_draws;
 };
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, curtains;
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;
@@ -146,12 +148,13 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	t->cache = cache;
 	t->count = f->hdr.patch_count;
 	t->blocks = f->layout.blocks;
-	t->per_patch = t->blocks * t->blocks + 4 * t->blocks;
+	t->per_patch = t->blocks * t->blocks;
 	t->per_draw = RELIEF_VK_MAX_TESS_VERTICES_PER_DRAW / MAX_VERTICES_PER_QUAD;
 	t->max_patches = relief_patch_cache_pool(cache)->layers;
 	if (t->max_patches > t->count)
 		t->max_patches = t->count;
-	t->max_draws = (t->max_patches * t->per_patch + t->per_draw - 1) / t->per_draw;
+	t->max_quads = t->max_patches * (t->per_patch + 4 * t->blocks);
+	t->max_draws = (t->max_quads + t->per_draw - 1) / t->per_draw;
 
 	int ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
 	                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
@@ -259,11 +262,11 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_patches * t->per_patch + 8, storage,
-	                                 false)) < 0)
+	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_quads + 8, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 12 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 13 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -288,7 +291,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
-		                            v->drawn.buffer, v->factors.buffer };
+		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -336,6 +339,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->instances);
 	relief_vk_buffer_finish(vk, &v->drawn);
 	relief_vk_buffer_finish(vk, &v->factors);
+	relief_vk_buffer_finish(vk, &v->curtains);
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);
@@ -399,7 +403,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.ratio = f->hdr.ratio,
 	};
 	memcpy(dp.vp, sp.vp, sizeof(dp.vp));
-	struct commands_push cp = { t->per_patch, t->per_draw, t->max_draws };
+	struct commands_push cp = { t->per_patch, t->blocks, t->per_draw, t->max_draws };
 
 	VkCommandBuffer cmd;
 	int ret = relief_vk_cmd_begin(vk, &cmd);

@@ -325,6 +325,33 @@ static void test_sealed_borders(void **state)
 	assert_int_equal(kinds, 3u); /* single-level and mixed-level frames both tested */
 }
 
+/* The terrain's outer edge hangs a curtain (the only skirts left): seen from outside, below
+ * the edge, it covers pixels that show background without it, and only there. */
+static void test_edge_curtain(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, DEM_PUGET);
+	/* West of Puget Sound's west edge (x = 0), low, looking east along the edge's face. */
+	const struct pose pose = { { -4000, 80000, 150 }, { 20000, 82000, 0 } };
+	struct relief_view v = pose_view(&pose);
+	v.tau = 1.0;
+	struct relief_terrain_stats st;
+	render(&b.s, &v, b.ref, &st);
+	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
+	render_with(&b.s, &v, &bare, b.lod, &st);
+	uint32_t with = 0, without = 0, lost = 0;
+	for (size_t k = 0; k < (size_t)BW * BH; k++) {
+		with += b.ref[k] > 0.0f;
+		without += b.lod[k] > 0.0f;
+		lost += b.lod[k] > 0.0f && !(b.ref[k] > 0.0f);
+	}
+	print_message("edge curtain: %u pixels of terrain with it, %u without\n", with, without);
+	assert_true(without > BW);          /* the terrain is in view */
+	assert_true(with > without + BW);   /* at least a pixel row's worth of curtain */
+	assert_int_equal(lost, 0);          /* the curtain only adds */
+	bound_close(&b);
+}
+
 static void test_watertight_and_error_bound_puget(void **state)
 {
 	/* Puget Sound spans x, y in [0, 163840] m; Mt Rainier's summit is at (128480, 79200). */
@@ -474,6 +501,7 @@ int main(void)
 		cmocka_unit_test(test_watertight_and_error_bound_puget),
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_sealed_borders),
+		cmocka_unit_test(test_edge_curtain),
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_nodata_hidden),
 	};
