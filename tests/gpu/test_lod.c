@@ -375,6 +375,54 @@ static void test_watertight_and_error_bound_alps(void **state)
 	watertight_and_error_bound(DEM_ALPS, poses, sizeof(poses) / sizeof(poses[0]));
 }
 
+/* Hard cases render cleanly: a camera inside the mountain, one exactly above a patch corner
+ * and in the plane of two patch borders, one far outside the terrain, and extreme
+ * thresholds. Every depth is a finite reversed-Z value in [0, 1] (no NaN), the draw succeeds
+ * and converges, tau = 1e6 draws the root alone, tau = 1e-4 draws only finest patches, and
+ * the validation layer stays silent. */
+static void test_hard_views(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, DEM_PUGET);
+	/* Puget Sound: Mt Rainier's summit (4380 m) at (128480, 79200); finest patches 20480 m wide. */
+	const struct { struct pose pose; double tau; } cases[] = {
+		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 1.0 },     /* inside the mountain */
+		{ { { 81920, 81920, 2500 }, { 90000, 81920, 0 } }, 1.0 },          /* on a patch corner */
+		{ { { -900000, 80000, 9000 }, { 80000, 80000, 0 } }, 1.0 },        /* 900 km outside */
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 1e6 },     /* everything coarse */
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 1e-4 },    /* everything finest */
+	};
+	uint32_t *ids = malloc(4 * b.s.f->hdr.patch_count);
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
+		struct relief_view v = pose_view(&cases[c].pose);
+		v.tau = cases[c].tau;
+		v.zfar = 2e6;
+		struct relief_terrain_stats st;
+		render(&b.s, &v, b.lod, &st);
+		uint32_t bad = 0, terrain = 0;
+		for (size_t k = 0; k < (size_t)BW * BH; k++) {
+			bad += !(b.lod[k] >= 0.0f && b.lod[k] <= 1.0f); /* also catches NaN */
+			terrain += b.lod[k] > 0.0f;
+		}
+		uint32_t n = relief_terrain_view_drawn(b.s.view, ids, b.s.f->hdr.patch_count), coarsest = 99, finest = 0;
+		for (uint32_t i = 0; i < n; i++) {
+			uint32_t l, px, py;
+			assert_true(relief_patch_coords(&b.s.f->layout, ids[i], &l, &px, &py));
+			coarsest = l < coarsest ? l : coarsest;
+			finest = l > finest ? l : finest;
+		}
+		print_message("hard view %zu (tau %g): %u patches, levels %u-%u, %u terrain pixels, %u bad depths\n", c,
+		              v.tau, n, coarsest, finest, terrain, bad);
+		assert_int_equal(bad, 0);
+		if (v.tau >= 1e6)
+			assert_true(n == 1 && ids[0] == 0);
+		if (v.tau <= 1e-4)
+			assert_true(n > 0 && coarsest == b.s.f->hdr.levels - 1);
+	}
+	free(ids);
+	bound_close(&b);
+}
+
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
  * renders the same frame from the same relative camera: positions are camera-relative. */
 static void test_huge_coordinates(void **state)
@@ -502,6 +550,7 @@ int main(void)
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_sealed_borders),
 		cmocka_unit_test(test_edge_curtain),
+		cmocka_unit_test(test_hard_views),
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_nodata_hidden),
 	};
