@@ -19,8 +19,18 @@ static uint32_t rng(void)
 static void test_crc32c_check_value(void **state)
 {
 	assert_int_equal(relief_crc32c(0, "123456789", 9), 0xE3069283u);
+	assert_int_equal(relief_crc32c_portable(0, "123456789", 9), 0xE3069283u);
 	/* Incremental equals one-shot. */
 	assert_int_equal(relief_crc32c(relief_crc32c(0, "1234", 4), "56789", 5), 0xE3069283u);
+	/* Both paths agree on every length and alignment of random data. */
+	uint8_t buf[4096 + 8];
+	for (size_t i = 0; i < sizeof(buf); i++)
+		buf[i] = (uint8_t)rng();
+	for (size_t off = 0; off < 8; off++)
+		for (size_t len = 0; len < 300; len++)
+			assert_int_equal(relief_crc32c(7, buf + off, len), relief_crc32c_portable(7, buf + off, len));
+	assert_int_equal(relief_crc32c(0, buf, 4096), relief_crc32c_portable(0, buf, 4096));
+	print_message("crc32c: %s path\n", relief_crc32c_hardware() ? "SSE4.2" : "table");
 }
 
 static void test_rangecoder_roundtrip(void **state)
