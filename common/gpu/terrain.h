@@ -25,8 +25,8 @@ struct relief_terrain_stats {
 	uint32_t draws;         /* indirect draw records */
 	uint32_t requests;      /* missing patches asked for this frame */
 	uint64_t triangles;     /* primitives reaching the clipper (pipeline statistics), 0 if unsupported */
-	uint64_t gpu_ns;        /* whole frame (selection, draw, copy-out) */
-	uint64_t select_ns;     /* selection compute */
+	uint64_t gpu_ns;        /* whole frame (LOD compute, draw, copy-out) */
+	uint64_t select_ns;     /* LOD compute: selection, draw records, tessellation factors */
 };
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
