@@ -3,11 +3,63 @@
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
 #include "terrain_factors.glsl"
+#include "terrain_seal.glsl"
 // Tessellation factors of every drawn quad patch of one view, once per frame, one
 // invocation per quad (dispatched indirectly from the drawn count): the work the control
 // shader would otherwise repeat per patch, here spread over all compute lanes. Factors are
 // 0 or powers of two up to 16, stored as bytes: outer in x, inner in y.
 layout(local_size_x = 64) in;
+
+// Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
+// v = 1 south) and inner; all zero discards the quad.
+void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
+{
+	vec2 in_s[4];
+	float down;
+	for (uint v = 0u; v < 4u; v++)
+		in_s[v] = quad_corner(k, v, down);
+	int b = int(pc.blocks);
+	if (k < pc.blocks * pc.blocks) {
+		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
+		vec4 e = block_eps(it, bl.x, bl.y);
+		// Edges in the order of the outer factors: west, north, east, south.
+		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
+		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
+		float f[4];
+		for (int i = 0; i < 4; i++) {
+			ivec2 nb = bl + toward[i];
+			if (nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b) {
+				vec2 a, c;
+				block_edge(bl, sides[i], a, c);
+				f[i] = edge_factor(it, a, c, max(e, block_eps(it, nb.x, nb.y)), it.err);
+				continue;
+			}
+			float fc;
+			uint j = coarser_edge(it, bl, sides[i], fc);
+			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : border_edge_factor(it, bl, sides[i]);
+		}
+		float fn = nearest_factor(it, vec2(bl) * float(BLOCK_CELLS), e);
+		outer = vec4(f[0], f[1], f[2], f[3]);
+		inner = vec2(max(max(f[1], f[3]), fn), max(max(f[0], f[2]), fn));
+		if (((pc.mode >> 1) & 3u) == FINE_ERRORS) // isotropic: see the top of the file
+			inner = vec2(max(inner.x, inner.y));
+		// (the distance baseline keeps one inner factor per direction, as such schemes do)
+	} else {
+		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;
+		int i = int(j % pc.blocks);
+		if (neighbour_id(it, side) >= 0 || (pc.mode & MODE_NO_SKIRTS) != 0u) {
+			// Inside the terrain every border is sealed: matched at one level, drawn on
+			// the coarser edge between levels. Only the terrain's edge hangs a curtain.
+			outer = vec4(0.0);
+			inner = vec2(0.0);
+			return;
+		}
+		ivec2 bl = side == 0u ? ivec2(i, 0) : side == 1u ? ivec2(i, b - 1) : side == 2u ? ivec2(0, i) : ivec2(b - 1, i);
+		float f = border_edge_factor(it, bl, side);
+		outer = vec4(1.0, f, 1.0, f);
+		inner = vec2(f, 1.0);
+	}
+}
 
 layout(std430, binding = 13) writeonly buffer Factors { uvec2 factors[]; };
 

@@ -3,7 +3,7 @@
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
 // Passes the quad's corners through and sets the factors lod_factors.comp computed for it
-// this frame (terrain_factors.glsl has the method).
+// this frame (terrain_factors.glsl and terrain_seal.glsl have the method).
 layout(vertices = 4) out;
 layout(location = 0) in flat uint in_slot[];
 layout(location = 1) in flat uint in_quad[];

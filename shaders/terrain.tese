@@ -3,6 +3,7 @@
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
 #include "terrain_factors.glsl"
+#include "terrain_seal.glsl"
 // Vertices land on samples (factors are 16 / 2^d), displaced by the decoded heights;
 // positions are camera-relative, so floats stay small at any world coordinates, and formed
 // by pos_of() so that patches sharing a border put its vertices at the same bits. A border

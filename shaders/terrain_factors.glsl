@@ -1,5 +1,6 @@
-// Fine LOD (design notes §4), shared by lod_factors.comp, which computes every drawn quad
-// patch's tessellation factors once per frame, and terrain.tesc, which reads them.
+// Fine LOD (design notes §4): the level of each block edge and of a block's interior, used
+// by lod_factors.comp, which computes every drawn quad patch's factors once per frame, and
+// through terrain_seal.glsl by the evaluation shader.
 //
 // Each edge of a tessellation block takes the coarsest simplification d (factor 16 / 2^d)
 // whose error segment, eps_d of the blocks on both sides plus Err(P), projects to at most
@@ -9,7 +10,7 @@
 // edge compute it from the same numbers, so the patch is seamless inside, and so is a border
 // between two patches drawn at the same level (border_errors); between levels the finer
 // patch draws its border with the coarser patch's vertices, on its drawn edge
-// (coarser_edge, terrain.tese). The inner factor, the same in both directions, is the
+// (terrain_seal.glsl). The inner factor, the same in both directions, is the
 // largest of the edge factors and of the level the block's point nearest the camera needs
 // (the paper takes the smallest edge factor): an interior of, say, 8 x 4-sample cells is a
 // triangulation that no eps_d measures, and the benchmark caught one exceeding tau.
@@ -143,160 +144,4 @@ float border_edge_factor(Instance it, ivec2 bl, uint side)
 	vec2 a, b;
 	block_edge(bl, side, a, b);
 	return edge_factor(it, a, b, eps, err);
-}
-
-// Instance of the coarser patch cid, j levels above `it`, as its own selection wrote it.
-Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
-{
-	int cells = int(pc.P) - 1;
-	ivec2 cell = ivec2(it.px, it.py) * (cells * it.scale) - it.base; // the camera's cell
-	Instance c = it;
-	c.id = cid;
-	c.layer = layer_of[cid];
-	c.level = it.level - j;
-	c.q2 = coarser_q2(it, j);
-	c.scale = it.scale << j;
-	c.base = q * (cells * c.scale) - cell;
-	c.err = info[cid].err;
-	c.skirt = info[cid].skirt;
-	c.px = uint(q.x);
-	c.py = uint(q.y);
-	return c;
-}
-
-// Border block bl on `side` against a coarser patch drawn across it: the coarser patch's
-// factor for its block edge that holds this one, and j. The caller draws this edge with
-// that patch's vertices only (factor fc / 2^j, at least 1) and the evaluation shader
-// puts them on its drawn edge, so the border has no crack and needs no skirt.
-uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc)
-{
-	uint cid;
-	uint j = coarser_across(it, side, cid);
-	fc = 0.0;
-	if (j == 0u)
-		return 0u;
-	ivec2 q = neighbour_at(it, side) >> j;
-	Instance c = coarser_instance(it, cid, j, q);
-	int b = int(pc.blocks);
-	// This block's index along the border in the level's blocks, then in the coarser
-	// patch's: a coarser block spans 2^j of ours.
-	bool vertical = side >= 2u; // west or east border: along runs north to south
-	int along = (vertical ? int(it.py) : int(it.px)) * b + (vertical ? bl.y : bl.x);
-	int c_along = (along >> j) - (vertical ? q.y : q.x) * b;
-	int last = b - 1;
-	uint c_side = side ^ 1u; // the coarser patch's border facing us
-	ivec2 cbl = c_side == 0u ? ivec2(c_along, 0) : c_side == 1u ? ivec2(c_along, last)
-	          : c_side == 2u ? ivec2(0, c_along) : ivec2(last, c_along);
-	fc = border_edge_factor(c, cbl, c_side);
-	return j;
-}
-
-// Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
-// v = 1 south) and inner; all zero discards the quad.
-void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
-{
-	vec2 in_s[4];
-	float down;
-	for (uint v = 0u; v < 4u; v++)
-		in_s[v] = quad_corner(k, v, down);
-	int b = int(pc.blocks);
-	if (k < pc.blocks * pc.blocks) {
-		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
-		vec4 e = block_eps(it, bl.x, bl.y);
-		// Edges in the order of the outer factors: west, north, east, south.
-		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
-		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
-		float f[4];
-		for (int i = 0; i < 4; i++) {
-			ivec2 nb = bl + toward[i];
-			if (nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b) {
-				vec2 a, c;
-				block_edge(bl, sides[i], a, c);
-				f[i] = edge_factor(it, a, c, max(e, block_eps(it, nb.x, nb.y)), it.err);
-				continue;
-			}
-			float fc;
-			uint j = coarser_edge(it, bl, sides[i], fc);
-			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : border_edge_factor(it, bl, sides[i]);
-		}
-		float fn = nearest_factor(it, vec2(bl) * float(BLOCK_CELLS), e);
-		outer = vec4(f[0], f[1], f[2], f[3]);
-		inner = vec2(max(max(f[1], f[3]), fn), max(max(f[0], f[2]), fn));
-		if (((pc.mode >> 1) & 3u) == FINE_ERRORS) // isotropic: see the top of the file
-			inner = vec2(max(inner.x, inner.y));
-		// (the distance baseline keeps one inner factor per direction, as such schemes do)
-	} else {
-		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;
-		int i = int(j % pc.blocks);
-		if (neighbour_id(it, side) >= 0 || (pc.mode & MODE_NO_SKIRTS) != 0u) {
-			// Inside the terrain every border is sealed: matched at one level, drawn on
-			// the coarser edge between levels. Only the terrain's edge hangs a curtain.
-			outer = vec4(0.0);
-			inner = vec2(0.0);
-			return;
-		}
-		ivec2 bl = side == 0u ? ivec2(i, 0) : side == 1u ? ivec2(i, b - 1) : side == 2u ? ivec2(0, i) : ivec2(b - 1, i);
-		float f = border_edge_factor(it, bl, side);
-		outer = vec4(1.0, f, 1.0, f);
-		inner = vec2(f, 1.0);
-	}
-}
-
-// Height, in metres, at which every patch drawn around finest-grid point g (camera-relative
-// integer index) puts a vertex there: the point is on the border of `it`, and of up to three
-// patches across it; the coarsest of them draws that border with its own vertices, and the
-// others put theirs on its drawn edge. Returns false when `it` is that coarsest (or level
-// with it): its own sample then is the height.
-bool sealed_height(Instance it, ivec2 si, out float h)
-{
-	h = 0.0;
-	int last = int(pc.P) - 1;
-	ivec2 lo = ivec2(si.x == 0 ? -1 : 0, si.y == 0 ? -1 : 0), hi = ivec2(si.x == last ? 1 : 0, si.y == last ? 1 : 0);
-	uint best = it.level, best_id = 0u;
-	ivec2 best_q = ivec2(0);
-	int n = 1 << it.level;
-	for (int dy = lo.y; dy <= hi.y; dy++)
-		for (int dx = lo.x; dx <= hi.x; dx++) {
-			ivec2 q = ivec2(it.px, it.py) + ivec2(dx, dy);
-			if ((dx == 0 && dy == 0) || q.x < 0 || q.y < 0 || q.x >= n || q.y >= n ||
-			    drawn[first_id(it.level) + uint(q.y) * uint(n) + uint(q.x)] != 0u)
-				continue; // beyond the edge, or drawn at this level (shares our samples)
-			for (uint j = 1u; j <= it.level; j++) {
-				uint l = it.level - j;
-				uint a = first_id(l) + uint(q.y >> j) * (1u << l) + uint(q.x >> j);
-				if (drawn[a] != 0u) {
-					if (l < best) {
-						best = l;
-						best_id = a;
-						best_q = q >> j;
-					}
-					break;
-				}
-			}
-		}
-	if (best == it.level)
-		return false;
-	uint j = it.level - best;
-	Instance c = coarser_instance(it, best_id, j, best_q);
-	// The point relative to the coarser patch's sample (0, 0), in finest samples.
-	int span = last * c.scale;
-	ivec2 o = it.base + si * it.scale - c.base;
-	uint side = o.x == 0 ? 2u : o.x == span ? 3u : o.y == 0 ? 0u : 1u;
-	int along = side >= 2u ? o.y : o.x;
-	int block_span = int(BLOCK_CELLS) * c.scale, b = int(pc.blocks);
-	int cb = min(along / block_span, b - 1);
-	ivec2 cbl = side == 0u ? ivec2(cb, 0) : side == 1u ? ivec2(cb, b - 1) : side == 2u ? ivec2(0, cb) : ivec2(b - 1, cb);
-	int step = int(BLOCK_CELLS) / int(border_edge_factor(c, cbl, side)); // coarser samples per segment
-	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
-	int across = side == 0u ? 0 : side == 1u || side == 3u ? last : 0;
-	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
-	precise float ha = c.q2 * float(imageLoad(heights, ivec3(ma + 1, c.layer)).x);
-	h = ha;
-	if (rem != 0) {
-		ivec2 mb = ma + (side >= 2u ? ivec2(0, step) : ivec2(step, 0));
-		precise float hb = c.q2 * float(imageLoad(heights, ivec3(mb + 1, c.layer)).x);
-		precise float hm = mix(ha, hb, float(rem) / float(step_g));
-		h = hm;
-	}
-	return true;
 }

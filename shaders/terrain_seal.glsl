@@ -1,0 +1,110 @@
+// Borders between levels (docs/lod.md): where a patch's neighbour at its level is not
+// drawn but an ancestor of it is, the finer patch rebuilds that coarser patch's instance,
+// reproduces its factor for the block edge holding its own, draws its border with the
+// coarser patch's vertices only, and puts every border vertex on the coarser patch's drawn
+// edge. Needs terrain_factors.glsl.
+
+// Instance of the coarser patch cid, j levels above `it`, as its own selection wrote it.
+Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
+{
+	int cells = int(pc.P) - 1;
+	ivec2 cell = ivec2(it.px, it.py) * (cells * it.scale) - it.base; // the camera's cell
+	Instance c = it;
+	c.id = cid;
+	c.layer = layer_of[cid];
+	c.level = it.level - j;
+	c.q2 = coarser_q2(it, j);
+	c.scale = it.scale << j;
+	c.base = q * (cells * c.scale) - cell;
+	c.err = info[cid].err;
+	c.skirt = info[cid].skirt;
+	c.px = uint(q.x);
+	c.py = uint(q.y);
+	return c;
+}
+
+// Border block bl on `side` against a coarser patch drawn across it: the coarser patch's
+// factor for its block edge that holds this one, and j. The caller draws this edge with
+// that patch's vertices only (factor fc / 2^j, at least 1) and the evaluation shader
+// puts them on its drawn edge, so the border has no crack and needs no skirt.
+uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc)
+{
+	uint cid;
+	uint j = coarser_across(it, side, cid);
+	fc = 0.0;
+	if (j == 0u)
+		return 0u;
+	ivec2 q = neighbour_at(it, side) >> j;
+	Instance c = coarser_instance(it, cid, j, q);
+	int b = int(pc.blocks);
+	// This block's index along the border in the level's blocks, then in the coarser
+	// patch's: a coarser block spans 2^j of ours.
+	bool vertical = side >= 2u; // west or east border: along runs north to south
+	int along = (vertical ? int(it.py) : int(it.px)) * b + (vertical ? bl.y : bl.x);
+	int c_along = (along >> j) - (vertical ? q.y : q.x) * b;
+	int last = b - 1;
+	uint c_side = side ^ 1u; // the coarser patch's border facing us
+	ivec2 cbl = c_side == 0u ? ivec2(c_along, 0) : c_side == 1u ? ivec2(c_along, last)
+	          : c_side == 2u ? ivec2(0, c_along) : ivec2(last, c_along);
+	fc = border_edge_factor(c, cbl, c_side);
+	return j;
+}
+
+// Height, in metres, at which every patch drawn around finest-grid point g (camera-relative
+// integer index) puts a vertex there: the point is on the border of `it`, and of up to three
+// patches across it; the coarsest of them draws that border with its own vertices, and the
+// others put theirs on its drawn edge. Returns false when `it` is that coarsest (or level
+// with it): its own sample then is the height.
+bool sealed_height(Instance it, ivec2 si, out float h)
+{
+	h = 0.0;
+	int last = int(pc.P) - 1;
+	ivec2 lo = ivec2(si.x == 0 ? -1 : 0, si.y == 0 ? -1 : 0), hi = ivec2(si.x == last ? 1 : 0, si.y == last ? 1 : 0);
+	uint best = it.level, best_id = 0u;
+	ivec2 best_q = ivec2(0);
+	int n = 1 << it.level;
+	for (int dy = lo.y; dy <= hi.y; dy++)
+		for (int dx = lo.x; dx <= hi.x; dx++) {
+			ivec2 q = ivec2(it.px, it.py) + ivec2(dx, dy);
+			if ((dx == 0 && dy == 0) || q.x < 0 || q.y < 0 || q.x >= n || q.y >= n ||
+			    drawn[first_id(it.level) + uint(q.y) * uint(n) + uint(q.x)] != 0u)
+				continue; // beyond the edge, or drawn at this level (shares our samples)
+			for (uint j = 1u; j <= it.level; j++) {
+				uint l = it.level - j;
+				uint a = first_id(l) + uint(q.y >> j) * (1u << l) + uint(q.x >> j);
+				if (drawn[a] != 0u) {
+					if (l < best) {
+						best = l;
+						best_id = a;
+						best_q = q >> j;
+					}
+					break;
+				}
+			}
+		}
+	if (best == it.level)
+		return false;
+	uint j = it.level - best;
+	Instance c = coarser_instance(it, best_id, j, best_q);
+	// The point relative to the coarser patch's sample (0, 0), in finest samples.
+	int span = last * c.scale;
+	ivec2 o = it.base + si * it.scale - c.base;
+	uint side = o.x == 0 ? 2u : o.x == span ? 3u : o.y == 0 ? 0u : 1u;
+	int along = side >= 2u ? o.y : o.x;
+	int block_span = int(BLOCK_CELLS) * c.scale, b = int(pc.blocks);
+	int cb = min(along / block_span, b - 1);
+	ivec2 cbl = side == 0u ? ivec2(cb, 0) : side == 1u ? ivec2(cb, b - 1) : side == 2u ? ivec2(0, cb) : ivec2(b - 1, cb);
+	int step = int(BLOCK_CELLS) / int(border_edge_factor(c, cbl, side)); // coarser samples per segment
+	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
+	int across = side == 0u ? 0 : side == 1u || side == 3u ? last : 0;
+	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
+	precise float ha = c.q2 * float(imageLoad(heights, ivec3(ma + 1, c.layer)).x);
+	h = ha;
+	if (rem != 0) {
+		ivec2 mb = ma + (side >= 2u ? ivec2(0, step) : ivec2(step, 0));
+		precise float hb = c.q2 * float(imageLoad(heights, ivec3(mb + 1, c.layer)).x);
+		precise float hm = mix(ha, hb, float(rem) / float(step_g));
+		h = hm;
+	}
+	return true;
+}
