@@ -50,11 +50,11 @@ uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc)
 	return j;
 }
 
-// Height, in metres, at which every patch drawn around finest-grid point g (camera-relative
-// integer index) puts a vertex there: the point is on the border of `it`, and of up to three
-// patches across it; the coarsest of them draws that border with its own vertices, and the
-// others put theirs on its drawn edge. Returns false when `it` is that coarsest (or level
-// with it): its own sample then is the height.
+// Height, in metres, at which every patch drawn around `it`'s border sample si puts a vertex
+// there: the point is on the border of `it` and of up to three patches across it; the
+// coarsest of them draws that border with its own vertices, and the others put theirs on
+// its drawn edge. Returns false when `it` is that coarsest (or level with it): its own
+// sample then is the height.
 bool sealed_height(Instance it, ivec2 si, out float h)
 {
 	h = 0.0;
