@@ -104,13 +104,7 @@ static int bench_relief(struct ctx *c, struct result *r)
 		r->encode_s = bench_median(enc, c->runs);
 		r->decode_s = bench_median(dec, c->runs);
 		/* Decoded patches only: an empty patch (no valid sample) has no stream. */
-		uint32_t decoded = 0;
-		for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
-			struct relief_patch_record rec;
-			relief_file_record(f, id, &rec);
-			decoded += !(rec.flags & RELIEF_PATCH_EMPTY);
-		}
-		double patch_samples = (double)decoded * f->hdr.patch_size * f->hdr.patch_size;
+		double patch_samples = (double)bench_decoded_patches(f) * f->hdr.patch_size * f->hdr.patch_size;
 		r->patch_msps = patch_samples / r->decode_s / 1e6;
 	}
 	free(h);

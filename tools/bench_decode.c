@@ -91,12 +91,7 @@ int bench_decode(int argc, char **argv)
 		return 1;
 	}
 	const uint32_t P = f->hdr.patch_size;
-	uint32_t patches = 0;
-	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
-		struct relief_patch_record r;
-		relief_file_record(f, id, &r);
-		patches += !(r.flags & RELIEF_PATCH_EMPTY);
-	}
+	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
 	double cpu[16], ent[16], gpu[16], gpu_busy[16], worker[16];
 	struct relief_patch_cache_stats st = { 0 };

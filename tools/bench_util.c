@@ -4,6 +4,7 @@
 #include <time.h>
 
 #include "bench_util.h"
+#include "format.h"
 
 double bench_now(void)
 {
@@ -46,4 +47,15 @@ const char *bench_cpu_name(void)
 	}
 	fclose(f);
 	return name;
+}
+
+uint32_t bench_decoded_patches(const struct relief_file *f)
+{
+	uint32_t n = 0;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
+		struct relief_patch_record r;
+		relief_file_record(f, id, &r);
+		n += !(r.flags & RELIEF_PATCH_EMPTY);
+	}
+	return n;
 }

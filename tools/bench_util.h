@@ -2,9 +2,14 @@
 #pragma once
 
 #include <stddef.h>
+#include <stdint.h>
+
+struct relief_file;
 
 double bench_now(void);
 /* Median of n values (sorts them). */
 double bench_median(double *v, size_t n);
+/* Patches with a stream (not empty): the ones a decoder decodes. */
+uint32_t bench_decoded_patches(const struct relief_file *f);
 /* "model name" from /proc/cpuinfo, or "unknown CPU". */
 const char *bench_cpu_name(void);
