@@ -41,7 +41,7 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
 		float fn = nearest_factor(it, vec2(bl) * float(BLOCK_CELLS), e);
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		inner = vec2(max(max(f[1], f[3]), fn), max(max(f[0], f[2]), fn));
-		if (((pc.mode >> 1) & 3u) == FINE_ERRORS) // isotropic: see the top of the file
+		if (fine_lod() == FINE_ERRORS) // isotropic: see the top of the file
 			inner = vec2(max(inner.x, inner.y));
 		// (the distance baseline keeps one inner factor per direction, as such schemes do)
 	} else {

@@ -24,7 +24,7 @@ void main()
 	float down = mix(mix(in_down[0], in_down[1], gl_TessCoord.x), mix(in_down[2], in_down[3], gl_TessCoord.x),
 	                 gl_TessCoord.y);
 	ivec2 si = clamp(ivec2(s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
-	precise float h = it.q2 * float(imageLoad(heights, ivec3(si + 1, it.layer)).x);
+	float h = sample_height(it, si);
 	int last = int(pc.P) - 1;
 	float hs;
 	if ((si.x == 0 || si.y == 0 || si.x == last || si.y == last) && sealed_height(it, si, hs))

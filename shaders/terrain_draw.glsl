@@ -55,26 +55,42 @@ int neighbour_id(Instance it, uint side)
 	return int(first_id(it.level)) + q.y * n + q.x;
 }
 
-// When the neighbour at the same level is not drawn but one of its ancestors is, that
-// coarser patch's id and the level difference j >= 1; otherwise 0 (same level drawn,
-// drawn finer, culled, or beyond the edge).
-uint coarser_across(Instance it, uint side, out uint cid)
+// For cell q of `level` (inside the terrain): when the patch there is not drawn but one of
+// its ancestors is, that ancestor's id and the level difference j >= 1; otherwise 0 (drawn
+// at this level, drawn finer, or culled).
+uint drawn_above(uint level, ivec2 q, out uint id)
 {
-	cid = 0u;
-	int nid = neighbour_id(it, side);
-	if (nid < 0 || drawn[nid] != 0u)
+	id = 0u;
+	if (drawn[first_id(level) + uint(q.y) * (1u << level) + uint(q.x)] != 0u)
 		return 0u;
-	ivec2 q = neighbour_at(it, side);
-	for (uint j = 1u; j <= it.level; j++) {
-		uint l = it.level - j;
+	for (uint j = 1u; j <= level; j++) {
+		uint l = level - j;
 		uint a = first_id(l) + uint(q.y >> j) * (1u << l) + uint(q.x >> j);
 		if (drawn[a] != 0u) {
-			cid = a;
+			id = a;
 			return j;
 		}
 	}
 	return 0u;
 }
+
+// drawn_above() for the neighbour across border `side`; 0 beyond the terrain's edge.
+uint coarser_across(Instance it, uint side, out uint cid)
+{
+	cid = 0u;
+	return neighbour_id(it, side) < 0 ? 0u : drawn_above(it.level, neighbour_at(it, side), cid);
+}
+
+// Height in metres of sample m of patch `it` (its quantum times q2, the same operations
+// wherever a sample's height is needed, so shared samples give the same bits).
+float sample_height(Instance it, ivec2 m)
+{
+	precise float h = it.q2 * float(imageLoad(heights, ivec3(m + 1, it.layer)).x);
+	return h;
+}
+
+// The fine LOD the frame uses (FINE_*).
+uint fine_lod() { return (pc.mode >> 1) & 3u; }
 
 // Metres per quantum j levels coarser than `it`: the same sequence of products as the
 // selection's (lod_select.comp), so the bits equal the coarser patch's own.

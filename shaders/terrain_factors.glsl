@@ -54,11 +54,7 @@ float seg_pixels(vec4 c, float e)
 	return len;
 }
 
-vec3 sample_pos(Instance it, ivec2 m)
-{
-	precise float h = it.q2 * float(imageLoad(heights, ivec3(m + 1, it.layer)).x);
-	return pos_of(it, m, h);
-}
+vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m)); }
 
 // The coarsest factor whose error segment, measured at each of `n` points (clip space), is
 // within tau.
@@ -77,7 +73,7 @@ float error_factor(vec4 c[3], int n, vec4 eps, float err)
 
 float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, float err)
 {
-	uint fine = (pc.mode >> 1) & 3u;
+	uint fine = fine_lod();
 	if (fine == FINE_FULL)
 		return float(BLOCK_CELLS);
 	ivec2 m = ivec2((a + b) * 0.5 + 0.5);
@@ -115,8 +111,7 @@ void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout float
 // The level needed at the block's sample nearest the camera (which sits at the origin).
 float nearest_factor(Instance it, vec2 lo, vec4 eps)
 {
-	uint fine = (pc.mode >> 1) & 3u;
-	if (fine != FINE_ERRORS)
+	if (fine_lod() != FINE_ERRORS)
 		return 1.0;
 	vec3 o = pos_of(it, ivec2(0), 0.0);
 	vec2 step = it.spacing * float(it.scale);

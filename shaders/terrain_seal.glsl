@@ -66,20 +66,13 @@ bool sealed_height(Instance it, ivec2 si, out float h)
 	for (int dy = lo.y; dy <= hi.y; dy++)
 		for (int dx = lo.x; dx <= hi.x; dx++) {
 			ivec2 q = ivec2(it.px, it.py) + ivec2(dx, dy);
-			if ((dx == 0 && dy == 0) || q.x < 0 || q.y < 0 || q.x >= n || q.y >= n ||
-			    drawn[first_id(it.level) + uint(q.y) * uint(n) + uint(q.x)] != 0u)
-				continue; // beyond the edge, or drawn at this level (shares our samples)
-			for (uint j = 1u; j <= it.level; j++) {
-				uint l = it.level - j;
-				uint a = first_id(l) + uint(q.y >> j) * (1u << l) + uint(q.x >> j);
-				if (drawn[a] != 0u) {
-					if (l < best) {
-						best = l;
-						best_id = a;
-						best_q = q >> j;
-					}
-					break;
-				}
+			if ((dx == 0 && dy == 0) || q.x < 0 || q.y < 0 || q.x >= n || q.y >= n)
+				continue;
+			uint a, j = drawn_above(it.level, q, a); // 0: shares our samples, or finer
+			if (j != 0u && it.level - j < best) {
+				best = it.level - j;
+				best_id = a;
+				best_q = q >> j;
 			}
 		}
 	if (best == it.level)
@@ -98,11 +91,11 @@ bool sealed_height(Instance it, ivec2 si, out float h)
 	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
 	int across = side == 0u ? 0 : side == 1u || side == 3u ? last : 0;
 	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
-	precise float ha = c.q2 * float(imageLoad(heights, ivec3(ma + 1, c.layer)).x);
+	float ha = sample_height(c, ma);
 	h = ha;
 	if (rem != 0) {
 		ivec2 mb = ma + (side >= 2u ? ivec2(0, step) : ivec2(step, 0));
-		precise float hb = c.q2 * float(imageLoad(heights, ivec3(mb + 1, c.layer)).x);
+		float hb = sample_height(c, mb);
 		precise float hm = mix(ha, hb, float(rem) / float(step_g));
 		h = hm;
 	}

@@ -440,7 +440,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
-	dp.mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
+	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
+	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
@@ -458,7 +459,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->stats_pool)
 		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
-		dp.mode = (uint32_t)pass | ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
+		dp.mode = mode | (uint32_t)pass;
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pass ? t->draw_wire : t->draw_fill);
 		vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(dp), &dp);
 		if (vk->has.draw_indirect_count)
