@@ -182,6 +182,19 @@ static struct comparison compare(const struct scene *s, const struct relief_view
 	return c;
 }
 
+/* The last frame's drawn patches (ids[], *n of them) and the mask of their levels. */
+static uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n)
+{
+	uint32_t levels = 0;
+	*n = relief_terrain_view_drawn(s->view, ids, s->f->hdr.patch_count);
+	for (uint32_t i = 0; i < *n; i++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));
+		levels |= 1u << l;
+	}
+	return levels;
+}
+
 /* Against a full-resolution render of the same camera: no background inside the terrain's
  * silhouette (cracks), and the surface's vertical error in pixels within tau. */
 struct pose {
@@ -283,12 +296,7 @@ static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n
 		for (size_t k = 0; k < sizeof(taus) / sizeof(taus[0]); k++) {
 			v.tau = taus[k];
 			render_with(&s, &v, &bare, b.lod, &st);
-			uint32_t n = relief_terrain_view_drawn(s.view, ids, s.f->hdr.patch_count), levels = 0;
-			for (uint32_t i = 0; i < n; i++) {
-				uint32_t l, px, py;
-				assert_true(relief_patch_coords(&s.f->layout, ids[i], &l, &px, &py));
-				levels |= 1u << l;
-			}
+			uint32_t n, levels = drawn_levels(&s, ids, &n);
 			struct comparison c = compare(&s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
 			print_message("%s pose %zu tau %g, no skirts: %u patches, level mask 0x%x, %llu triangles (full %llu), "
 			              "%u holes, max vertical error %.3f px over %u pixels\n", test_dem_name(dem), p, v.tau, n,
@@ -404,13 +412,9 @@ static void test_hard_views(void **state)
 			bad += !(b.lod[k] >= 0.0f && b.lod[k] <= 1.0f); /* also catches NaN */
 			terrain += b.lod[k] > 0.0f;
 		}
-		uint32_t n = relief_terrain_view_drawn(b.s.view, ids, b.s.f->hdr.patch_count), coarsest = 99, finest = 0;
-		for (uint32_t i = 0; i < n; i++) {
-			uint32_t l, px, py;
-			assert_true(relief_patch_coords(&b.s.f->layout, ids[i], &l, &px, &py));
-			coarsest = l < coarsest ? l : coarsest;
-			finest = l > finest ? l : finest;
-		}
+		uint32_t n, levels = drawn_levels(&b.s, ids, &n);
+		uint32_t coarsest = levels ? (uint32_t)__builtin_ctz(levels) : 99u;
+		uint32_t finest = levels ? 31u - (uint32_t)__builtin_clz(levels) : 0u;
 		print_message("hard view %zu (tau %g): %u patches, levels %u-%u, %u terrain pixels, %u bad depths\n", c,
 		              v.tau, n, coarsest, finest, terrain, bad);
 		assert_int_equal(bad, 0);
