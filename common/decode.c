@@ -75,10 +75,17 @@ static int decode_one(void *ctx, size_t i)
 	const size_t EE = (size_t)lay->geom.E * lay->geom.E;
 	uint32_t side = 1u << j->level, px = (uint32_t)i % side, py = (uint32_t)i / side;
 	const int32_t *parent = j->level ? j->parents + ((size_t)(py / 2) * (side / 2) + px / 2) * EE : NULL;
+	uint32_t id = relief_patch_id(j->level, px, py);
+	struct relief_patch_record r;
+	relief_file_record(j->f, id, &r);
+	if (r.flags & RELIEF_PATCH_EMPTY) { /* nothing valid here nor below: not decoded */
+		memset(j->blocks + i * EE, 0, sizeof(int32_t) * EE);
+		return 0;
+	}
 	struct relief_decoder d;
 	int ret = relief_decoder_init(&d, j->f);
 	if (ret == 0)
-		ret = relief_decoder_patch(&d, relief_patch_id(j->level, px, py), parent, j->blocks + i * EE);
+		ret = relief_decoder_patch(&d, id, parent, j->blocks + i * EE);
 	relief_decoder_finish(&d);
 	return ret;
 }

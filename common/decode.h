@@ -26,7 +26,9 @@ int relief_decoder_symbols(struct relief_decoder *d, uint32_t id);
 int relief_decoder_patch(struct relief_decoder *d, uint32_t id, const int32_t *parent, int32_t *block);
 
 /* Decodes levels 0..level; blocks_out receives level `level`'s blocks (patches of that
- * level in id order, E*E values each; free() it). threads: 0 = every core. */
+ * level in id order, E*E values each; free() it). threads: 0 = every core. Empty patches
+ * are not decoded (the file guarantees that their descendants are empty too): their
+ * blocks are zero, and none of their samples is valid. */
 int relief_decode_level_blocks(const struct relief_file *f, uint32_t level, unsigned threads, int32_t **blocks_out);
 
 /* Assembles level `level` as heights in metres over the raster's extent at that level
