@@ -12,7 +12,7 @@ _Static_assert((-3 >> 1) == -2, "arithmetic right shift required");
 
 int relief_patch_geom_init(struct relief_patch_geom *g, uint32_t P)
 {
-	if (P < 3 || P > 4097 || ((P - 1) & (P - 2)) != 0)
+	if (P < 3 || P > RELIEF_PATCH_MAX || ((P - 1) & (P - 2)) != 0)
 		return -EINVAL;
 	g->P = P;
 	g->E = P + 2;
@@ -245,30 +245,30 @@ static inline uint32_t mag(int32_t v)
 	return v < 0 ? (uint32_t)(-(int64_t)v) : (uint32_t)v;
 }
 
-/* Local activity bucket of s = |left| + |up| (each clamped to 64) in the same plane:
- * 0, 1, 2, 3-4, 5-8, 9-16, 17+. A table, so that no branch depends on the data. */
-static const uint8_t activity_of[129] = {
-	0, 1, 2, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 5, 5, 5, 5,
-	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
-	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
-	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
-	6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6, 6,
-};
-
-static inline uint32_t clamped_mag(int32_t v)
+/* Magnitude class of a residual: 0 for 0, k + 1 for |d| - 1 in [2^(k-1), 2^k) (k = 0:
+ * |d| = 1), 8 above 64. It is what a residual's symbol says without its raw bits (the
+ * class of symbol s is (s + 1) / 2), so a decoder knows a context before it reads them. */
+static inline unsigned class_of(int32_t d)
 {
-	uint32_t m = mag(v);
-	return m > 64 ? 64 : m;
+	uint32_t a = mag(d) - 1;
+	return d == 0 ? 0 : a >= ESCAPE_BASE - 1 ? 8 : a ? 33 - (unsigned)__builtin_clz(a) : 1;
 }
+
+#define CLASSES 9
+
+/* Local activity from the left and upper neighbours' classes in the same plane (a missing
+ * neighbour counts as class 0): the bucket (0, 1, 2, 3-4, 5-8, 9-16, 17+) of the sum of
+ * the two classes' smallest magnitudes (0, 1, 2, 3, 5, 9, 17, 33, 65). A table, so that
+ * no branch depends on the data. */
+static const uint8_t class_activity[CLASSES][CLASSES] = {
+	{ 0, 1, 2, 3, 4, 5, 6, 6, 6 }, { 1, 2, 3, 3, 4, 5, 6, 6, 6 }, { 2, 3, 3, 4, 4, 5, 6, 6, 6 },
+	{ 3, 3, 4, 4, 4, 5, 6, 6, 6 }, { 4, 4, 4, 4, 5, 5, 6, 6, 6 }, { 5, 5, 5, 5, 5, 6, 6, 6, 6 },
+	{ 6, 6, 6, 6, 6, 6, 6, 6, 6 }, { 6, 6, 6, 6, 6, 6, 6, 6, 6 }, { 6, 6, 6, 6, 6, 6, 6, 6, 6 },
+};
 
 static inline unsigned plane_context(const int32_t *v, uint32_t w, uint32_t u, uint32_t row)
 {
-	uint32_t s = 0;
-	if (u)
-		s += clamped_mag(v[row * w + u - 1]);
-	if (row)
-		s += clamped_mag(v[(row - 1) * w + u]);
-	return activity_of[s];
+	return class_activity[u ? class_of(v[row * w + u - 1]) : 0][row ? class_of(v[(row - 1) * w + u]) : 0];
 }
 
 static inline unsigned label_context(const int8_t *l, uint32_t L, uint32_t i, uint32_t j)
@@ -411,10 +411,13 @@ struct decoder {
 	bool corrupt;
 };
 
+/* One residual, and its class in *cls. */
 __attribute__((always_inline)) static inline int32_t get_residual(struct decoder *dc, int stream,
-                                                                    struct rc_cdf16 *m, struct rc_cdf16 *esc)
+                                                                    struct rc_cdf16 *m, struct rc_cdf16 *esc,
+                                                                    unsigned *cls)
 {
 	unsigned s = rans_decode_sym16(&dc->d[stream], m);
+	*cls = (s + 1) >> 1;
 	if (__builtin_expect(s != ESCAPE_SYMBOL, 1)) {
 		int32_t v = (int32_t)(sym_base[s] + bitreader_get(&dc->bits, sym_bits[s]));
 		return (s & 1) || s == 0 ? v : -v;
@@ -438,19 +441,32 @@ __attribute__((always_inline)) static inline int32_t get_residual(struct decoder
 	return neg ? -v : v;
 }
 
+/* Contexts come from the classes the symbols give (class_of() of the values, which the
+ * encoder uses), so the raw bits stay off the chain from one symbol to the next context. */
 static void get_plane(struct decoder *dc, struct stream_models m[2], int p, int32_t *v, uint32_t w, uint32_t h)
 {
+	uint8_t up[RELIEF_PATCH_MAX / 2 + 2]; /* classes of the row above: w <= (P + 3) / 2 */
+	memset(up, 0, w);
+	struct rc_cdf16 *res0 = m[0].res[p], *res1 = m[1].res[p];
 	uint32_t row = 0;
 	for (; row + 1 < h; row += 2) {
 		int32_t *a = v + row * w, *b = a + w;
+		unsigned left_a = 0, left_b = 0, ca, cb;
 		for (uint32_t u = 0; u < w; u++) {
-			a[u] = get_residual(dc, 0, &m[0].res[p][plane_context(v, w, u, row)], &m[0].esc[p]);
-			b[u] = get_residual(dc, 1, &m[1].res[p][plane_context(v, w, u, row + 1)], &m[1].esc[p]);
+			a[u] = get_residual(dc, 0, &res0[class_activity[left_a][up[u]]], &m[0].esc[p], &ca);
+			b[u] = get_residual(dc, 1, &res1[class_activity[left_b][ca]], &m[1].esc[p], &cb);
+			up[u] = (uint8_t)cb;
+			left_a = ca;
+			left_b = cb;
 		}
 	}
-	if (row < h)
-		for (uint32_t u = 0; u < w; u++)
-			v[row * w + u] = get_residual(dc, 0, &m[0].res[p][plane_context(v, w, u, row)], &m[0].esc[p]);
+	if (row < h) {
+		unsigned left = 0, c;
+		for (uint32_t u = 0; u < w; u++) {
+			v[row * w + u] = get_residual(dc, 0, &res0[class_activity[left][up[u]]], &m[0].esc[p], &c);
+			left = c;
+		}
+	}
 }
 
 static inline int8_t get_label(struct rans_dec *d, struct rc_cdf16 *m)

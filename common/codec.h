@@ -40,7 +40,9 @@ struct relief_patch_geom {
 	uint32_t n_residuals; /* E * E - L * L */
 };
 
-/* 0 or -EINVAL when P is not 2^n + 1 with 3 <= P <= 4097. */
+#define RELIEF_PATCH_MAX 4097u
+
+/* 0 or -EINVAL when P is not 2^n + 1 with 3 <= P <= RELIEF_PATCH_MAX. */
 int relief_patch_geom_init(struct relief_patch_geom *g, uint32_t P);
 
 /* quadrant: bit 0 = east half, bit 1 = south half of the parent (rows grow southwards). */

@@ -22,7 +22,7 @@
 #include "layout.h"
 
 #define RELIEF_MAGIC "RELIEF\x1a\n"
-#define RELIEF_FORMAT_VERSION 1u
+#define RELIEF_FORMAT_VERSION 2u /* 2: residual contexts from classes (docs/codec.md) */
 #define RELIEF_HEADER_SIZE 512u
 #define RELIEF_INDEX_RECORD_SIZE 40u
 
