@@ -475,6 +475,30 @@ static inline int8_t get_label(struct rans_dec *d, struct rc_cdf16 *m)
 	return value[rans_decode_sym16(d, m)];
 }
 
+/* The labels in the encoder's order and contexts (label_context()), with the left and
+ * just-decoded upper neighbours kept in registers rather than read back from memory. */
+static void get_labels(struct decoder *dc, struct stream_models m[2], int8_t *labels, uint32_t L)
+{
+	uint32_t j = 0;
+	for (; j < L; j += 2) {
+		int8_t *a = labels + j * L, *b = a + L;
+		const int8_t *up = j ? a - L : NULL;
+		unsigned left_a = 0, left_b = 0;
+		bool pair = j + 1 < L;
+		for (uint32_t i = 0; i < L; i++) {
+			unsigned ca = left_a + (up && up[i] != 0);
+			int8_t la = get_label(&dc->d[0], &m[0].labels[ca]);
+			a[i] = la;
+			left_a = la != 0;
+			if (pair) {
+				int8_t lb = get_label(&dc->d[1], &m[1].labels[left_b + (la != 0)]);
+				b[i] = lb;
+				left_b = lb != 0;
+			}
+		}
+	}
+}
+
 int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const uint8_t *buf, size_t size,
                                 int8_t *labels, int32_t *residuals)
 {
@@ -498,16 +522,7 @@ int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, co
 	if (root) {
 		get_plane(&dc, m, 0, residuals, g->E, g->E);
 	} else {
-		const uint32_t L = g->L;
-		uint32_t j = 0;
-		for (; j + 1 < L; j += 2)
-			for (uint32_t i = 0; i < L; i++) {
-				labels[j * L + i] = get_label(&dc.d[0], &m[0].labels[label_context(labels, L, i, j)]);
-				labels[(j + 1) * L + i] = get_label(&dc.d[1], &m[1].labels[label_context(labels, L, i, j + 1)]);
-			}
-		if (j < L)
-			for (uint32_t i = 0; i < L; i++)
-				labels[j * L + i] = get_label(&dc.d[0], &m[0].labels[label_context(labels, L, i, j)]);
+		get_labels(&dc, m, labels, g->L);
 		struct plane pl[3];
 		planes(g, pl);
 		int32_t *v = residuals;
