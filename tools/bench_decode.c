@@ -30,16 +30,16 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, double *wall, st
 	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
 	if (ret < 0)
 		return ret;
+	/* Every patch at once, coarse first (a child is accepted while its parent is on its
+	 * way): the worker decodes deeper levels while the device reconstructs shallower ones. */
 	double t = bench_now();
-	for (uint32_t l = 0; l < f->hdr.levels && ret >= 0; l++) {
-		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++) {
-			int r = relief_patch_cache_request(c, id, 0.0f);
-			if (r < 0 && r != -ENOENT && r != -EIO)
-				ret = r;
-		}
-		if (ret >= 0)
-			ret = relief_patch_cache_flush(c, 1);
+	for (uint32_t id = 0; id < f->hdr.patch_count && ret >= 0; id++) {
+		int r = relief_patch_cache_request(c, id, (float)id);
+		if (r < 0 && r != -ENOENT && r != -EIO)
+			ret = r;
 	}
+	if (ret >= 0)
+		ret = relief_patch_cache_flush(c, 1);
 	*wall = bench_now() - t;
 	relief_patch_cache_stats(c, st);
 	relief_patch_cache_destroy(c);

@@ -531,7 +531,8 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 	}
 	if (id != 0) {
 		uint32_t parent = parent_of(c, id);
-		if (c->state[parent] != RELIEF_PATCH_RESIDENT) {
+		uint8_t ps = c->state[parent];
+		if (ps != RELIEF_PATCH_RESIDENT && ps != RELIEF_PATCH_QUEUED && ps != RELIEF_PATCH_DECODING) {
 			int ret = relief_patch_cache_request(c, parent, priority - 1.0f);
 			return ret == 0 || ret == -EAGAIN ? -EAGAIN : ret;
 		}
@@ -540,6 +541,18 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 	c->state[id] = RELIEF_PATCH_QUEUED;
 	pthread_mutex_lock(&c->lock);
 	int ret = heap_push(c, priority, id);
+	/* The child's symbols can be decoded while its parent is on its way; the worker must
+	 * still take the ancestors first (a child's slot is held until its parent is resident),
+	 * so those still in the heap are pushed again ahead of it (the stale entries are
+	 * skipped when they come up). */
+	float ahead = priority;
+	for (uint32_t a = id; ret == 0 && a != 0;) {
+		a = parent_of(c, a);
+		if (!c->queued[a])
+			break;
+		ahead = fminf(ahead - 1.0f, nextafterf(ahead, -INFINITY)); /* strictly ahead, any magnitude */
+		ret = heap_push(c, ahead, a);
+	}
 	if (ret == 0) {
 		c->queued[id] = 1;
 		pthread_cond_signal(&c->work);
@@ -780,23 +793,36 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 			c->pending[c->n_pending++] = ready[i];
 		}
 	}
-	/* Fill free batches with pending patches that get a layer. */
-	for (int i = 0; i < IN_FLIGHT && c->n_pending; i++) {
+	/* Fill free batches with pending patches whose parent is resident (the decode pass
+	 * reads it) and that get a layer; the others keep their order in `pending`. */
+	bool no_layer = false;
+	for (int i = 0; i < IN_FLIGHT && c->n_pending && !no_layer; i++) {
 		struct batch *b = &c->batches[i];
 		if (b->busy)
 			continue;
-		uint32_t taken = 0;
-		while (taken < c->n_pending && b->n < c->o.batch) {
-			int32_t layer = alloc_layer(c, frame);
-			if (layer < 0)
-				break;
-			b->jobs[b->n] = c->pending[taken++];
+		uint32_t kept = 0;
+		for (uint32_t k = 0; k < c->n_pending; k++) {
+			struct job j = c->pending[k];
+			uint8_t ps = j.id ? c->state[parent_of(c, j.id)] : RELIEF_PATCH_RESIDENT;
+			if (ps == RELIEF_PATCH_BAD) { /* never decodable; the grandparent serves */
+				c->state[j.id] = RELIEF_PATCH_ABSENT;
+				c->pins[parent_of(c, j.id)]--;
+				release_slot(c, j.slot);
+				continue;
+			}
+			int32_t layer = -1;
+			if (ps == RELIEF_PATCH_RESIDENT && b->n < c->o.batch && !no_layer)
+				no_layer = (layer = alloc_layer(c, frame)) < 0;
+			if (layer < 0) {
+				c->pending[kept++] = j;
+				continue;
+			}
+			b->jobs[b->n] = j;
 			b->layers[b->n] = (uint32_t)layer;
-			c->owner[layer] = (int32_t)b->jobs[b->n].id;
+			c->owner[layer] = (int32_t)j.id;
 			b->n++;
 		}
-		memmove(c->pending, c->pending + taken, sizeof(struct job) * (c->n_pending - taken));
-		c->n_pending -= taken;
+		c->n_pending = kept;
 		if (!b->n)
 			break;
 		if ((ret = submit(c, b)) < 0)
