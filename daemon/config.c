@@ -20,6 +20,19 @@ void reliefd_config_defaults(struct reliefd_config *c)
 	memset(c, 0, sizeof(*c));
 	c->validation = false;
 	c->budget_mib = 256;
+	c->decode_workers = 1;
+}
+
+/* A decimal whole number in [lo, hi], nothing else on the line. */
+static bool parse_u32(const char *v, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+	char *end;
+	errno = 0;
+	unsigned long n = strtoul(v, &end, 10);
+	if (errno || end == v || *end || v[0] == '-' || n < lo || n > hi)
+		return false;
+	*out = (uint32_t)n;
+	return true;
 }
 
 static bool parse_bool(const char *v, bool *out)
@@ -54,13 +67,11 @@ static int handler(void *user, const char *section, const char *name, const char
 		if (!parse_bool(value, &st->c->validation))
 			why = "expected true or false";
 	} else if (!strcmp(name, "budget_mib")) {
-		char *end;
-		errno = 0;
-		unsigned long v = strtoul(value, &end, 10);
-		if (errno || end == value || *end || value[0] == '-' || v < 16 || v > 1048576)
+		if (!parse_u32(value, 16, 1048576, &st->c->budget_mib))
 			why = "expected a whole number of MiB in [16, 1048576]";
-		else
-			st->c->budget_mib = (uint32_t)v;
+	} else if (!strcmp(name, "decode_workers")) {
+		if (!parse_u32(value, 1, RELIEFD_MAX_DECODE_WORKERS, &st->c->decode_workers))
+			why = "expected a whole number of threads in [1, 8]";
 	} else {
 		why = "unknown key";
 	}

@@ -10,7 +10,10 @@ struct reliefd_config {
 	char device[256];      /* [gpu] device: name substring, deviceUUID or render node; "" = default */
 	bool validation;       /* [gpu] validation */
 	uint32_t budget_mib;   /* [gpu] budget_mib: GPU memory for the patch cache */
+	uint32_t decode_workers; /* [gpu] decode_workers: the cache's entropy-decoding threads */
 };
+
+#define RELIEFD_MAX_DECODE_WORKERS 8u /* = RELIEF_PATCH_CACHE_MAX_WORKERS */
 
 void reliefd_config_defaults(struct reliefd_config *c);
 /* Parses INI text over the current values. Returns 0, or -EINVAL with a message in `err`. */

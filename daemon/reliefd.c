@@ -13,6 +13,8 @@
 #include "relief_version.h"
 #include "vk.h"
 
+_Static_assert(RELIEFD_MAX_DECODE_WORKERS == RELIEF_PATCH_CACHE_MAX_WORKERS, "config and cache limits differ");
+
 /* Opens the terrain, builds the patch cache within the configured budget, decodes the two
  * coarsest levels and reports the cache. */
 static int check_terrain(struct relief_vk *vk, const struct reliefd_config *cfg, const char *path,
@@ -24,7 +26,8 @@ static int check_terrain(struct relief_vk *vk, const struct reliefd_config *cfg,
 		fprintf(stderr, "reliefd: %s: %s\n", path, err);
 		return 1;
 	}
-	struct relief_patch_cache_options o = { .budget_bytes = (uint64_t)cfg->budget_mib << 20 };
+	struct relief_patch_cache_options o = { .budget_bytes = (uint64_t)cfg->budget_mib << 20,
+	                                        .workers = cfg->decode_workers };
 	struct relief_patch_cache *c;
 	int ret = relief_patch_cache_create(vk, f, &o, log, &c);
 	if (ret < 0) {

@@ -23,9 +23,10 @@
 #include "patch_cache.h"
 #include "vk.h"
 
-static int gpu_run(struct relief_vk *vk, struct relief_file *f, double *wall, struct relief_patch_cache_stats *st)
+static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers, double *wall,
+                   struct relief_patch_cache_stats *st)
 {
-	struct relief_patch_cache_options o = { .budget_bytes = 1ull << 30 };
+	struct relief_patch_cache_options o = { .budget_bytes = 1ull << 30, .workers = workers };
 	struct relief_patch_cache *c;
 	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
 	if (ret < 0)
@@ -52,11 +53,12 @@ int bench_decode(int argc, char **argv)
 		{ "json", no_argument, NULL, 'J' },
 		{ "runs", required_argument, NULL, 'n' },
 		{ "device", required_argument, NULL, 'd' },
+		{ "workers", required_argument, NULL, 'w' },
 		{ "help", no_argument, NULL, 'h' },
 		{ 0 },
 	};
 	bool json = false;
-	uint32_t runs = 3;
+	uint32_t runs = 3, workers = 1;
 	const char *device = NULL;
 	int ch;
 	opterr = 0;
@@ -68,11 +70,16 @@ int bench_decode(int argc, char **argv)
 				return EXIT_USAGE;
 			break;
 		case 'd': device = optarg; break;
+		case 'w':
+			if (!cli_parse_u32("bench decode", "--workers", optarg, 1, RELIEF_PATCH_CACHE_MAX_WORKERS, &workers))
+				return EXIT_USAGE;
+			break;
 		case 'h':
-			printf("usage: relief bench decode FILE.relief [--json] [--runs N] [--device DEV]\n"
+			printf("usage: relief bench decode FILE.relief [--json] [--runs N] [--workers N] [--device DEV]\n"
 			       "GPU decoding through the patch cache against the CPU reference decoder on the same\n"
 			       "patches: MSamples/s (decoded patch samples), the CPU entropy stage alone, GPU time\n"
-			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3).\n");
+			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3);\n"
+			       "--workers: the cache's entropy-decoding threads (default 1).\n");
 			return 0;
 		case ':':
 		default:
@@ -121,7 +128,7 @@ int bench_decode(int argc, char **argv)
 		}
 		ent[i] = bench_now() - t;
 		relief_decoder_finish(&dec);
-		if (ret < 0 || (ret = gpu_run(vk, f, &gpu[i], &st)) < 0)
+		if (ret < 0 || (ret = gpu_run(vk, f, workers, &gpu[i], &st)) < 0)
 			goto fail;
 		gpu_busy[i] = st.gpu_ns * 1e-9;
 		worker[i] = st.entropy_ns * 1e-9;

@@ -103,8 +103,8 @@ struct relief_patch_cache {
 	uint32_t in_worker;
 	uint64_t entropy_ns;
 	bool stop;
-	bool thread_started;
-	pthread_t thread;
+	uint32_t n_threads; /* workers started */
+	pthread_t threads[RELIEF_PATCH_CACHE_MAX_WORKERS];
 };
 
 static void *worker_main(void *data);
@@ -350,6 +350,8 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 		c->o.budget_bytes = 256ull << 20;
 	if (!c->o.staging_slots)
 		c->o.staging_slots = 32;
+	if (!c->o.workers || c->o.workers > RELIEF_PATCH_CACHE_MAX_WORKERS)
+		c->o.workers = c->o.workers ? RELIEF_PATCH_CACHE_MAX_WORKERS : 1;
 	if (!c->o.batch || c->o.batch > MAX_BATCH)
 		c->o.batch = c->o.batch > MAX_BATCH ? MAX_BATCH : 16;
 	if (!c->o.keep_frames)
@@ -442,13 +444,14 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	if ((ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0 ||
 	    (ret = init_layouts(c)) < 0)
 		goto fail;
-	if (pthread_create(&c->thread, NULL, worker_main, c) != 0) {
-		ret = -EAGAIN;
-		goto fail;
-	}
-	c->thread_started = true;
+	for (; c->n_threads < c->o.workers; c->n_threads++)
+		if (pthread_create(&c->threads[c->n_threads], NULL, worker_main, c) != 0) {
+			ret = -EAGAIN;
+			goto fail;
+		}
 	relief_log(&c->log, RELIEF_LOG_INFO, "patch cache: %u layers of %u-sample patches, %llu bytes of GPU memory "
-	           "(budget %llu)", n, c->P, (unsigned long long)c->pool_bytes, (unsigned long long)c->o.budget_bytes);
+	           "(budget %llu), %u decode worker(s)", n, c->P, (unsigned long long)c->pool_bytes,
+	           (unsigned long long)c->o.budget_bytes, c->n_threads);
 	*out = c;
 	return 0;
 fail:
@@ -460,12 +463,13 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 {
 	if (!c)
 		return;
-	if (c->thread_started) {
+	if (c->n_threads) {
 		pthread_mutex_lock(&c->lock);
 		c->stop = true;
 		pthread_cond_broadcast(&c->work);
 		pthread_mutex_unlock(&c->lock);
-		pthread_join(c->thread, NULL);
+		for (uint32_t i = 0; i < c->n_threads; i++)
+			pthread_join(c->threads[i], NULL);
 	}
 	struct relief_vk *vk = c->vk;
 	if (vk->device)

@@ -39,7 +39,10 @@ struct relief_patch_cache_options {
 	uint32_t batch;          /* patches per submission (default 16) */
 	uint32_t keep_frames;    /* not evicted within this many frames of a touch (default 2) */
 	uint32_t max_layers;     /* 0, or a cap below what the budget allows (tests) */
+	uint32_t workers;        /* entropy-decoding threads (default 1, at most 8) */
 };
+
+#define RELIEF_PATCH_CACHE_MAX_WORKERS 8u
 
 enum relief_patch_state {
 	RELIEF_PATCH_ABSENT = 0,

@@ -110,6 +110,7 @@ int main(int argc, char **argv)
 		"[gpu]\nbudget_mib = 99999999999\n",
 		"[gpu\ndevice\n",
 		"; comment\n[gpu]\ndevice = 0123456789abcdef0123456789abcdef\n[other]\nx = 1\n",
+		"[gpu]\ndecode_workers = 2\ndecode_workers = 08x\n",
 	};
 	for (size_t i = 0; i < sizeof(configs) / sizeof(configs[0]); i++) {
 		snprintf(path, sizeof(path), "config%zu.ini", i);

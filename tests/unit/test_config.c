@@ -10,8 +10,10 @@ static void test_defaults_and_values(void **state)
 	char err[256] = "";
 	reliefd_config_defaults(&c);
 	assert_int_equal(c.budget_mib, 256);
-	assert_int_equal(reliefd_config_parse_string(&c, "[gpu]\ndevice = llvmpipe\nvalidation = yes\nbudget_mib = 64\n",
-	                                             err, sizeof(err)), 0);
+	assert_int_equal(c.decode_workers, 1);
+	assert_int_equal(reliefd_config_parse_string(&c, "[gpu]\ndevice = llvmpipe\nvalidation = yes\nbudget_mib = 64\n"
+	                                             "decode_workers = 3\n", err, sizeof(err)), 0);
+	assert_int_equal(c.decode_workers, 3);
 	assert_string_equal(c.device, "llvmpipe");
 	assert_true(c.validation);
 	assert_int_equal(c.budget_mib, 64);
@@ -33,6 +35,10 @@ static void test_errors_name_the_line(void **state)
 	assert_int_equal(reliefd_config_parse_string(&c, "[gpu]\njunk line\n", err, sizeof(err)), -EINVAL);
 	assert_non_null(strstr(err, "line 2"));
 	assert_int_equal(reliefd_config_parse_string(&c, "[gpu]\nvalidation = maybe\n", err, sizeof(err)), -EINVAL);
+	assert_int_equal(reliefd_config_parse_string(&c, "[gpu]\ndecode_workers = 0\n", err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "decode_workers"));
+	assert_int_equal(reliefd_config_parse_string(&c, "[gpu]\ndecode_workers = 9\n", err, sizeof(err)), -EINVAL);
+	assert_int_equal(c.decode_workers, 1);
 }
 
 static void test_load_missing_file(void **state)
