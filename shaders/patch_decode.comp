@@ -26,7 +26,7 @@ struct Job {
 	int ratio;      // k
 	uint slot;      // first int of the staging slot
 	uint flag;      // index into flags
-	int mode;       // 0 decode from parent, 1 copy values (root)
+	int mode;       // 0 decode from parent, 1 copy values (root), 2 nothing (warm-up)
 	int P;          // samples per side
 	uint mask;      // normals pass: staging offset of the validity bytes, ~0u: all valid
 	float q2, inv_2sx, inv_2sy; // normals pass
@@ -73,6 +73,8 @@ int residual(uint index)
 void main()
 {
 	pc = jobs[push.first_job + gl_WorkGroupID.z];
+	if (pc.mode == 2)
+		return;
 	int E = pc.P + 2, quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
 	ivec2 g = ivec2(gl_GlobalInvocationID.xy);
 	if (g.x >= quads || g.y >= quads)

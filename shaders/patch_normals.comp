@@ -15,7 +15,7 @@ struct Job {
 	int layer;     // the patch's layer (child_layer in the decode pass)
 	int parent_layer, quadrant, ratio;
 	uint slot, flag;
-	int mode;
+	int mode;      // 2: nothing to do (warm-up)
 	int P;
 	uint mask;     // staging int offset of the patch's validity bytes, or ~0u: all valid
 	float q2;      // metres per quantum at the patch's level (2 delta_l)
@@ -29,6 +29,8 @@ Job pc;
 void main()
 {
 	pc = jobs[push.first_job + gl_WorkGroupID.z];
+	if (pc.mode == 2)
+		return;
 	ivec2 p = ivec2(gl_GlobalInvocationID.xy);
 	if (p.x >= pc.P || p.y >= pc.P)
 		return;

@@ -276,7 +276,17 @@ static int create_pipelines(struct relief_patch_cache *c)
 	                                         &c->normals_pipeline);
 }
 
-/* Images start in GENERAL and stay there (storage writes, sampling, copies). */
+static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags src_access,
+                           VkPipelineStageFlags dst, VkAccessFlags dst_access)
+{
+	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, src_access, dst_access };
+	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
+}
+
+/* Images start in GENERAL and stay there (storage writes, sampling, copies).
+ * Puts the pools into the GENERAL layout, and runs both passes once on a job that does
+ * nothing (mode 2): drivers that compile pipelines at their first use (lavapipe does)
+ * compile them here, not while the first frames wait for patches. */
 static int init_layouts(struct relief_patch_cache *c)
 {
 	VkCommandBuffer cmd;
@@ -299,6 +309,16 @@ static int init_layouts(struct relief_patch_cache *c)
 		};
 	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, NULL,
 	                     0, NULL, 2, b);
+	*(struct job_params *)c->jobs.map = (struct job_params){ .mode = 2 };
+	uint32_t first = 0;
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
+	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
+	vkCmdDispatch(cmd, 1, 1, 1);
+	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdDispatch(cmd, 1, 1, 1);
 	return relief_vk_cmd_submit_wait(c->vk, cmd);
 }
 
@@ -674,13 +694,6 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 	}
 	b->busy = false;
 	b->n = 0;
-}
-
-static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags src_access,
-                           VkPipelineStageFlags dst, VkAccessFlags dst_access)
-{
-	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, src_access, dst_access };
-	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
 }
 
 static int submit(struct relief_patch_cache *c, struct batch *b)
