@@ -140,10 +140,10 @@ int bench_decode(int argc, char **argv)
 		printf("{\"file\":\"%s\",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
 		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
-		       "\"runs\":%u,\"device\":\"%s\"}\n",
+		       "\"workers\":%u,\"runs\":%u,\"device\":\"%s\"}\n",
 		       base, patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, w * 1e3,
-		       (unsigned long long)st.batches, runs, vk->props.deviceName);
+		       (unsigned long long)st.batches, workers, runs, vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
 		       "medians\n", base, patches, P, vk->props.deviceName, relief_vk_device_type_name(vk->props.deviceType),
@@ -151,8 +151,8 @@ int bench_decode(int argc, char **argv)
 		printf("  CPU reference (1 thread)     %8.2f ms  %7.2f MSamples/s\n", c * 1e3, samples / c / 1e6);
 		printf("  CPU entropy stage only       %8.2f ms  %7.2f MSamples/s  (%.0f%% of the reference)\n", e * 1e3,
 		       samples / e / 1e6, 100 * e / c);
-		printf("  GPU path (worker + GPU)      %8.2f ms  %7.2f MSamples/s  %.0f patches/s  ratio GPU/CPU %.2f\n",
-		       g * 1e3, samples / g / 1e6, patches / g, c / g);
+		printf("  GPU path (%u worker(s) + GPU) %7.2f ms  %7.2f MSamples/s  %.0f patches/s  ratio GPU/CPU %.2f\n",
+		       workers, g * 1e3, samples / g / 1e6, patches / g, c / g);
 		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches; worker entropy %.2f ms\n", gb * 1e3,
 		       (unsigned long long)st.batches, w * 1e3);
 		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors)\n",
