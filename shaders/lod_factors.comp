@@ -21,29 +21,45 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
 	int b = int(pc.blocks);
 	if (k < pc.blocks * pc.blocks) {
 		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
+		vec2 lo = vec2(bl) * float(BLOCK_CELLS);
 		vec4 e = block_eps(it, bl.x, bl.y);
+		bool errors = fine_lod() == FINE_ERRORS;
+		// The block's corners, edge middles and centre in clip space, 3 x 3 in raster order:
+		// where its edges and its interior are measured (the points edge_points() gives).
+		vec4 pt[9];
+		if (errors)
+			for (int q = 0; q < 9; q++)
+				pt[q] = clip_of(sample_pos(it, ivec2(lo + vec2(float(q % 3), float(q / 3)) * float(BLOCK_CELLS / 2u) + 0.5)));
 		// Edges in the order of the outer factors: west, north, east, south.
 		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
 		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
+		const ivec3 along[4] = ivec3[4](ivec3(0, 3, 6), ivec3(0, 1, 2), ivec3(2, 5, 8), ivec3(6, 7, 8));
 		float f[4];
 		for (int i = 0; i < 4; i++) {
 			ivec2 nb = bl + toward[i];
 			if (nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b) {
-				vec2 a, c;
-				block_edge(bl, sides[i], a, c);
-				f[i] = edge_factor(it, a, c, max(e, block_eps(it, nb.x, nb.y)), it.err);
+				vec4 eps = max(e, block_eps(it, nb.x, nb.y));
+				if (errors) {
+					vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
+					f[i] = error_factor(pts, 3, eps, it.err);
+				} else {
+					vec2 a, c;
+					block_edge(bl, sides[i], a, c);
+					f[i] = edge_factor(it, a, c, eps, it.err);
+				}
 				continue;
 			}
 			float fc;
 			uint j = coarser_edge(it, bl, sides[i], fc);
 			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : border_edge_factor(it, bl, sides[i]);
 		}
-		float fn = nearest_factor(it, vec2(bl) * float(BLOCK_CELLS), e);
 		outer = vec4(f[0], f[1], f[2], f[3]);
-		inner = vec2(max(max(f[1], f[3]), fn), max(max(f[0], f[2]), fn));
-		if (fine_lod() == FINE_ERRORS) // isotropic: see the top of the file
-			inner = vec2(max(inner.x, inner.y));
-		// (the distance baseline keeps one inner factor per direction, as such schemes do)
+		if (errors) { // isotropic: see the top of terrain_factors.glsl
+			inner = vec2(interior_factor(it, lo, e, pt, outer));
+		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
+			float fn = nearest_factor(it, lo, e);
+			inner = vec2(max(max(f[1], f[3]), fn), max(max(f[0], f[2]), fn));
+		}
 	} else {
 		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;
 		int i = int(j % pc.blocks);
