@@ -109,17 +109,23 @@ void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout float
 	err = max(err, info[nid].err);
 }
 
-// The level needed at the block's sample nearest the camera (which sits at the origin).
-float nearest_factor(Instance it, vec2 lo, vec4 eps)
+// The block's sample nearest the camera (which sits at the origin), in clip space.
+vec4 nearest_point(Instance it, vec2 lo)
 {
-	if (fine_lod() != FINE_ERRORS)
-		return 1.0;
 	vec3 o = pos_of(it, ivec2(0), 0.0);
 	vec2 step = it.spacing * float(it.scale);
 	vec2 cam = vec2(-o.x / step.x, o.y / step.y); // camera in patch samples
 	ivec2 m = ivec2(clamp(cam, lo, lo + float(BLOCK_CELLS)) + 0.5);
+	return clip_of(sample_pos(it, m));
+}
+
+// The level needed at the block's sample nearest the camera.
+float nearest_factor(Instance it, vec2 lo, vec4 eps)
+{
+	if (fine_lod() != FINE_ERRORS)
+		return 1.0;
 	vec4 pts[3];
-	pts[0] = clip_of(sample_pos(it, m));
+	pts[0] = nearest_point(it, lo);
 	return error_factor(pts, 1, eps, it.err);
 }
 
@@ -133,13 +139,20 @@ float nearest_factor(Instance it, vec2 lo, vec4 eps)
 // test pixel 1.007 px off at tau = 1.
 float interior_factor(Instance it, vec2 lo, vec4 eps, vec4 pt[9], vec4 edges)
 {
-	float f = nearest_factor(it, lo, eps);
-	for (int k = 0; k < 9; k++) {
-		vec4 pts[3];
-		pts[0] = pt[k];
-		f = max(f, error_factor(pts, 1, eps, it.err));
+	// Levels coarser than the limit are not tried: the search starts there, and each level
+	// stops at its first point over tau (passing is monotone in d, eps being so).
+	float least = 0.5 * max(max(edges.x, edges.y), max(edges.z, edges.w));
+	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
+	vec4 near = nearest_point(it, lo);
+	for (int d = top; d >= 1; d--) {
+		precise float e = eps[d - 1] + it.err;
+		bool pass = seg_pixels(near, e) <= pc.tau;
+		for (int k = 0; k < 9 && pass; k++)
+			pass = seg_pixels(pt[k], e) <= pc.tau;
+		if (pass)
+			return float(BLOCK_CELLS >> uint(d));
 	}
-	return max(f, 0.5 * max(max(edges.x, edges.y), max(edges.z, edges.w)));
+	return float(BLOCK_CELLS);
 }
 
 // Ends of block bl's edge on `side`, in patch samples (the same pairs the quads use).

@@ -93,7 +93,7 @@ struct relief_terrain {
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	VkPipeline select, commands, factors, draw_fill, draw_wire;
 	VkQueryPool stats_pool;
-	struct relief_vk_timer timer; /* 0 frame start, 1 selection done, 2 frame done */
+	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
 	 * at most (every layer drawn, each with four curtains: a loose bound) */
 	uint32_t count, blocks, per_patch, per_draw, max_patches, max_quads, max_draws;
@@ -213,7 +213,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	    (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT, 1,
 	                                       &t->stats_pool)) < 0)
 		goto fail;
-	if ((ret = relief_vk_timer_init(vk, &t->timer, 3)) < 0 && ret != -ENOTSUP)
+	if ((ret = relief_vk_timer_init(vk, &t->timer, 4)) < 0 && ret != -ENOTSUP)
 		goto fail;
 	*out = t;
 	return 0;
@@ -440,6 +440,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
+	if (t->timer.pool)
+		relief_vk_timer_write(&t->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
@@ -451,7 +453,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
 	if (t->timer.pool)
-		relief_vk_timer_write(&t->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+		relief_vk_timer_write(&t->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
@@ -474,7 +476,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
 	        VK_ACCESS_HOST_READ_BIT);
 	if (t->timer.pool)
-		relief_vk_timer_write(&t->timer, cmd, 2, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+		relief_vk_timer_write(&t->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
 	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
 		return ret;
 	v->parity ^= 1;
@@ -488,8 +490,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		vkGetQueryPoolResults(vk->device, t->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
 		                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
 	if (t->timer.pool && (relief_vk_timer_ns(vk, &t->timer, 0, 1, &s.select_ns) < 0 ||
-	                      relief_vk_timer_ns(vk, &t->timer, 0, 2, &s.gpu_ns) < 0))
-		s.select_ns = s.gpu_ns = 0;
+	                      relief_vk_timer_ns(vk, &t->timer, 0, 2, &s.lod_ns) < 0 ||
+	                      relief_vk_timer_ns(vk, &t->timer, 0, 3, &s.gpu_ns) < 0))
+		s.select_ns = s.lod_ns = s.gpu_ns = 0;
 	/* Requests: coarser patches first (lower ids are coarser). */
 	const uint32_t *want = v->wants.map;
 	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;

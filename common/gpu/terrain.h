@@ -26,7 +26,8 @@ struct relief_terrain_stats {
 	uint32_t requests;      /* missing patches asked for this frame */
 	uint64_t triangles;     /* primitives reaching the clipper (pipeline statistics), 0 if unsupported */
 	uint64_t gpu_ns;        /* whole frame (LOD compute, draw, copy-out) */
-	uint64_t select_ns;     /* LOD compute: selection, draw records, tessellation factors */
+	uint64_t select_ns;     /* coarse LOD compute: patch selection and draw records */
+	uint64_t lod_ns;        /* all LOD compute: select_ns plus the tessellation-factor pass */
 };
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
