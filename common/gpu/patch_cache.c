@@ -821,7 +821,9 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 		for (uint32_t k = 0; k < c->n_pending; k++) {
 			struct job j = c->pending[k];
 			uint8_t ps = j.id ? c->state[parent_of(c, j.id)] : RELIEF_PATCH_RESIDENT;
-			if (ps == RELIEF_PATCH_BAD) { /* never decodable; the grandparent serves */
+			if (ps != RELIEF_PATCH_RESIDENT && ps != RELIEF_PATCH_QUEUED && ps != RELIEF_PATCH_DECODING) {
+				/* The parent went bad, or was dropped for that reason itself: an ancestor
+				 * serves the area; the request may be made again later. */
 				c->state[j.id] = RELIEF_PATCH_ABSENT;
 				c->pins[parent_of(c, j.id)]--;
 				release_slot(c, j.slot);

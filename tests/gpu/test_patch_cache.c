@@ -299,12 +299,15 @@ static void count_log(void *data, enum relief_log_level level, const char *fmt, 
 		logged_errors++;
 }
 
-static void test_corrupt_patch(void **state)
+/* A corrupt patch at level vl, position (vx, vy) of Puget Sound: it is marked bad once,
+ * and every patch below it, requested (by load_all) while it was still queued, is dropped
+ * when its parent turns out bad or was dropped in turn, and is refused with -EIO later. */
+static void check_corrupt_patch(uint32_t vl, uint32_t vx, uint32_t vy)
 {
 	struct terrain t;
 	terrain_open(&t, DEM_PUGET, 129, 1.0);
 	struct relief_file *f = t.f;
-	uint32_t victim = relief_patch_id(2, 1, 2);
+	uint32_t victim = relief_patch_id(vl, vx, vy);
 	struct relief_patch_record r;
 	relief_file_record(f, victim, &r);
 	t.img[f->hdr.data_offset + r.offset + r.size / 2] ^= 0x40; /* the stream's CRC no longer matches */
@@ -313,35 +316,34 @@ static void test_corrupt_patch(void **state)
 	struct relief_patch_cache *c;
 	assert_int_equal(relief_patch_cache_create(vk, f, &o, &counter, &c), 0);
 	logged_errors = 0;
-	/* The victim's children are accepted while it is queued (nothing has run yet). */
-	assert_int_equal(relief_patch_cache_request(c, 0, 0), 0);
-	assert_int_equal(relief_patch_cache_request(c, relief_patch_id(1, 0, 1), 0), 0);
-	assert_int_equal(relief_patch_cache_request(c, victim, 0), 0);
-	for (uint32_t k = 0; k < 4; k++)
-		assert_int_equal(relief_patch_cache_request(c, relief_patch_id(3, 2 + (k & 1), 4 + (k >> 1)), 0), 0);
-	load_all(c, f, 1);
+	load_all(c, f, 1); /* nothing has run when the victim's descendants are requested */
 	assert_int_equal(relief_patch_cache_state(c, victim), RELIEF_PATCH_BAD);
 	assert_int_equal(logged_errors, 1);
 	/* Asking again neither retries nor logs again; its parent and neighbours are fine. */
 	assert_int_equal(relief_patch_cache_request(c, victim, 0), -EIO);
 	assert_int_equal(relief_patch_cache_flush(c, 2), 0);
 	assert_int_equal(logged_errors, 1);
-	assert_int_equal(relief_patch_cache_state(c, relief_patch_id(1, 0, 1)), RELIEF_PATCH_RESIDENT);
-	uint32_t resident = 0;
-	for (uint32_t id = 0; id < f->hdr.patch_count; id++)
-		resident += relief_patch_cache_state(c, id) == RELIEF_PATCH_RESIDENT;
-	/* the victim's four children, requested while it was queued, cannot be decoded
-	 * without it: dropped, and asking for them again names the bad parent */
-	assert_int_equal(resident, f->hdr.patch_count - 1 - 4);
-	for (uint32_t k = 0; k < 4; k++) {
-		uint32_t child = relief_patch_id(3, 2 + (k & 1), 4 + (k >> 1));
-		assert_int_equal(relief_patch_cache_state(c, child), RELIEF_PATCH_ABSENT);
-		assert_int_equal(relief_patch_cache_request(c, child, 0), -EIO);
+	uint32_t below = 0;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&f->layout, id, &l, &px, &py));
+		if (l > vl && px >> (l - vl) == vx && py >> (l - vl) == vy) {
+			below++;
+			assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_ABSENT);
+			assert_int_equal(relief_patch_cache_request(c, id, 0), -EIO);
+		} else if (id != victim) {
+			assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_RESIDENT);
+		}
 	}
+	assert_int_equal(below, vl == 2 ? 4 : 4 + 16);
 	relief_patch_cache_destroy(c);
 	terrain_close(&t);
 	gpu_test_assert_clean(vk);
 }
+
+static void test_corrupt_patch(void **state) { check_corrupt_patch(2, 1, 2); }
+/* two levels below: the children are dropped for the bad victim, the grandchildren for them */
+static void test_corrupt_patch_subtree(void **state) { check_corrupt_patch(1, 0, 1); }
 
 /* The file shrinks under a running cache: the lost patches go bad, nothing crashes. */
 static void test_truncated_at_run_time(void **state)
@@ -388,6 +390,7 @@ int main(void)
 		cmocka_unit_test(test_budget_and_eviction),
 		cmocka_unit_test(test_priority_and_dedup),
 		cmocka_unit_test(test_corrupt_patch),
+		cmocka_unit_test(test_corrupt_patch_subtree),
 		cmocka_unit_test(test_truncated_at_run_time),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
