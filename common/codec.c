@@ -445,7 +445,7 @@ __attribute__((always_inline)) static inline int32_t get_residual(struct decoder
  * encoder uses), so the raw bits stay off the chain from one symbol to the next context. */
 static void get_plane(struct decoder *dc, struct stream_models m[2], int p, int32_t *v, uint32_t w, uint32_t h)
 {
-	uint8_t up[RELIEF_PATCH_MAX / 2 + 2]; /* classes of the row above: w <= (P + 3) / 2 */
+	uint8_t up[RELIEF_PATCH_MAX + 2]; /* classes of the row above: w <= P + 2 (the root's plane) */
 	memset(up, 0, w);
 	struct rc_cdf16 *res0 = m[0].res[p], *res1 = m[1].res[p];
 	uint32_t row = 0;

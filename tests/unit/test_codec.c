@@ -147,6 +147,10 @@ static void test_patch_roundtrip(void **state)
 	roundtrip(257, 2, 3);
 }
 
+/* The largest patch the format allows: the decoder's per-row state must hold the root's
+ * plane, P + 2 samples wide (a buffer sized for the child planes overflowed here). */
+static void test_patch_roundtrip_largest(void **state) { roundtrip(RELIEF_PATCH_MAX, 2, 1); }
+
 static void test_analyse_rejects_foreign_child(void **state)
 {
 	struct relief_patch_geom g;
@@ -214,6 +218,7 @@ int main(void)
 		cmocka_unit_test(test_rangecoder_roundtrip),
 		cmocka_unit_test(test_geom),
 		cmocka_unit_test(test_patch_roundtrip),
+		cmocka_unit_test(test_patch_roundtrip_largest),
 		cmocka_unit_test(test_analyse_rejects_foreign_child),
 		cmocka_unit_test(test_reconstruct_refuses_out_of_range),
 		cmocka_unit_test(test_random_streams),
