@@ -13,7 +13,7 @@
 // (terrain_seal.glsl). The inner factor is the same in both directions (an interior of,
 // say, 8 x 4-sample cells is a triangulation that no eps_d measures, and the benchmark
 // caught one exceeding tau): the level the block's own errors need at its sample nearest
-// the camera, its corners and its edge middles, but at most one level coarser than its
+// the camera, its corners, edge middles and centre, but at most one level coarser than its
 // finest edge (interior_factor; the paper takes the smallest edge factor).
 // Skirt quads remain only along the terrain's outer edge (a curtain): its block's factor
 // along the edge, 1 across.
