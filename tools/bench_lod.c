@@ -347,11 +347,12 @@ int bench_lod(int argc, char **argv)
 	const size_t per_run = 2 * (size_t)frames;
 	struct result res[1 + 8 * 3] = { 0 };
 	const size_t total = (size_t)n * runs * per_run;
-	double *ms = calloc(3 * total, sizeof(double)), *sel = ms + total, *lod = sel + total;
+	double *ms = calloc(3 * total, sizeof(double));
 	if (!ms) {
 		fprintf(stderr, "relief bench lod: out of memory\n");
 		goto out;
 	}
+	double *sel = ms + total, *lod = sel + total;
 	for (uint32_t run = 0; run < runs; run++)
 		for (int i = 0; i < n; i++) {
 			size_t at = ((size_t)i * runs + run) * per_run;
