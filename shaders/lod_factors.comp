@@ -57,8 +57,7 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
 		if (errors) { // isotropic: see the top of terrain_factors.glsl
 			inner = vec2(interior_factor(it, lo, e, pt, outer));
 		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
-			float fn = nearest_factor(it, lo, e);
-			inner = vec2(max(max(f[1], f[3]), fn), max(max(f[0], f[2]), fn));
+			inner = vec2(max(f[1], f[3]), max(f[0], f[2]));
 		}
 	} else {
 		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;

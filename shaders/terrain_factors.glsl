@@ -119,16 +119,6 @@ vec4 nearest_point(Instance it, vec2 lo)
 	return clip_of(sample_pos(it, m));
 }
 
-// The level needed at the block's sample nearest the camera.
-float nearest_factor(Instance it, vec2 lo, vec4 eps)
-{
-	if (fine_lod() != FINE_ERRORS)
-		return 1.0;
-	vec4 pts[3];
-	pts[0] = nearest_point(it, lo);
-	return error_factor(pts, 1, eps, it.err);
-}
-
 // The interior factor of the block at lo with errors eps, clip-space corners, edge middles
 // and centre pt, and edge factors `edges`. Until
 // the third session it was the largest edge factor (and the nearest sample's need), so an
