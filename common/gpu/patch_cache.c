@@ -167,6 +167,13 @@ static uint32_t parent_of(const struct relief_patch_cache *c, uint32_t id)
 	return relief_patch_id(l - 1, px / 2, py / 2);
 }
 
+/* A patch that is resident or on its way there: a child may be requested under it, and a
+ * child's job keeps waiting for it. Any other state means it will not become resident. */
+static bool on_its_way(uint8_t state)
+{
+	return state == RELIEF_PATCH_RESIDENT || state == RELIEF_PATCH_QUEUED || state == RELIEF_PATCH_DECODING;
+}
+
 static const VkImageUsageFlags POOL_USAGE =
 	VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
 
@@ -555,8 +562,7 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 	}
 	if (id != 0) {
 		uint32_t parent = parent_of(c, id);
-		uint8_t ps = c->state[parent];
-		if (ps != RELIEF_PATCH_RESIDENT && ps != RELIEF_PATCH_QUEUED && ps != RELIEF_PATCH_DECODING) {
+		if (!on_its_way(c->state[parent])) {
 			int ret = relief_patch_cache_request(c, parent, priority - 1.0f);
 			return ret == 0 || ret == -EAGAIN ? -EAGAIN : ret;
 		}
@@ -820,12 +826,13 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 		uint32_t kept = 0;
 		for (uint32_t k = 0; k < c->n_pending; k++) {
 			struct job j = c->pending[k];
-			uint8_t ps = j.id ? c->state[parent_of(c, j.id)] : RELIEF_PATCH_RESIDENT;
-			if (ps != RELIEF_PATCH_RESIDENT && ps != RELIEF_PATCH_QUEUED && ps != RELIEF_PATCH_DECODING) {
+			uint32_t parent = j.id ? parent_of(c, j.id) : 0;
+			uint8_t ps = j.id ? c->state[parent] : RELIEF_PATCH_RESIDENT;
+			if (!on_its_way(ps)) {
 				/* The parent went bad, or was dropped for that reason itself: an ancestor
 				 * serves the area; the request may be made again later. */
 				c->state[j.id] = RELIEF_PATCH_ABSENT;
-				c->pins[parent_of(c, j.id)]--;
+				c->pins[parent]--;
 				release_slot(c, j.slot);
 				continue;
 			}
