@@ -87,14 +87,9 @@ struct relief_mat4 relief_mat4_perspective(double fovy, double aspect, double zn
 
 struct relief_mat4 relief_mat4_perspective_reversed(double fovy, double aspect, double znear, double zfar)
 {
-	double f = 1.0 / tan(fovy / 2.0);
-	struct relief_mat4 r = { { 0 } };
-	r.m[0] = f / aspect;
-	r.m[5] = -f;
-	r.m[10] = znear / (zfar - znear);
-	r.m[11] = -1.0;
-	r.m[14] = znear * zfar / (zfar - znear);
-	return r;
+	/* Depth 1 at znear, 0 at zfar: the standard matrix with the two planes swapped
+	 * (m[10] = znear / (zfar - znear), m[14] = znear zfar / (zfar - znear)). */
+	return relief_mat4_perspective(fovy, aspect, zfar, znear);
 }
 
 struct relief_mat4 relief_mat4_ortho(double l, double r, double b, double t, double zn, double zf)
