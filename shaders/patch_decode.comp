@@ -8,11 +8,15 @@
 // Corrupt input (values outside the codec's bounds) sets flags[flag]; the CPU then marks
 // the patch bad and never draws it.
 //
-// Work split: one invocation per 2 x 2 quad with its refined sample at even local (ex, ey),
+// Work split: one step per 2 x 2 quad with its refined sample at even local (ex, ey),
 // ex, ey in [-2, P-1]: it writes the refined sample (ex, ey), the edge samples (ex+1, ey)
 // and (ex, ey+1) and the centre (ex+1, ey+1), those inside [-1, P]. Every lane then runs
-// the same code (no divergence between sample kinds) and needs four refined values.
-layout(local_size_x = 8, local_size_y = 8) in;
+// the same code (no divergence between sample kinds) and needs four refined values. The
+// quads are walked in runs, one per workgroup (patch_run.glsl).
+#extension GL_GOOGLE_include_directive : require
+#include "patch_run.glsl"
+
+layout(local_size_x = 64) in;
 
 layout(binding = 0, r32i) uniform iimage2DArray heights;
 layout(std430, binding = 2) readonly buffer Staging { int data[]; } st;
@@ -70,15 +74,9 @@ int residual(uint index)
 	return d;
 }
 
-void main()
+void decode_quad(ivec2 g)
 {
-	pc = jobs[push.first_job + gl_WorkGroupID.z];
-	if (pc.mode == 2)
-		return;
-	int E = pc.P + 2, quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
-	ivec2 g = ivec2(gl_GlobalInvocationID.xy);
-	if (g.x >= quads || g.y >= quads)
-		return;
+	int E = pc.P + 2;
 	int L = (pc.P + 1) >> 1, odd = (pc.P + 3) >> 1, even = L;
 	uint values = pc.slot + uint(L * L);
 	int ex = 2 * g.x - 2, ey = 2 * g.y - 2;
@@ -104,4 +102,19 @@ void main()
 	// C plane sample (x, y)
 	put(x, y, ((r00 + r10 + r01 + r11 + 2) >> 2) +
 	          residual(values + uint(2 * even * odd + ((y + 1) >> 1) * odd + ((x + 1) >> 1))));
+}
+
+void main()
+{
+	pc = jobs[push.first_job + gl_WorkGroupID.z];
+	if (pc.mode == 2)
+		return;
+	int quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
+	int first, end;
+	patch_run(quads * quads, first, end);
+	ivec2 g = patch_run_start(first, quads);
+	for (int i = first + int(gl_LocalInvocationID.x); i < end; i += RUN_LANES) {
+		decode_quad(g);
+		g = patch_run_next(g, quads);
+	}
 }

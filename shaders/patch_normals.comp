@@ -3,7 +3,11 @@
 // ring for the border samples so that neighbouring patches get the same normal on their
 // shared edge. Output P x P, xyz of the unit normal (x east, y north, z up) as snorm8, and
 // in w the sample's validity (1 valid, -1 no-data) so that the renderer can hide holes.
-layout(local_size_x = 8, local_size_y = 8) in;
+#extension GL_GOOGLE_include_directive : require
+#include "patch_run.glsl"
+
+// One step per sample, walked in runs, one per workgroup (patch_run.glsl).
+layout(local_size_x = 64) in;
 
 layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 1, rgba8_snorm) uniform writeonly image2DArray normals;
@@ -26,14 +30,8 @@ layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
 layout(push_constant) uniform Push { uint first_job; } push;
 Job pc;
 
-void main()
+void normal_at(ivec2 p)
 {
-	pc = jobs[push.first_job + gl_WorkGroupID.z];
-	if (pc.mode == 2)
-		return;
-	ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-	if (p.x >= pc.P || p.y >= pc.P)
-		return;
 	ivec2 s = p + 1; // storage coordinates of the sample; rows grow southwards
 	int e = imageLoad(heights, ivec3(s + ivec2(1, 0), pc.layer)).x;
 	int w = imageLoad(heights, ivec3(s - ivec2(1, 0), pc.layer)).x;
@@ -48,4 +46,18 @@ void main()
 		valid = ((uint(st.data[pc.mask + i / 4u]) >> (8u * (i % 4u))) & 0xffu) != 0u ? 1.0 : -1.0;
 	}
 	imageStore(normals, ivec3(p, pc.layer), vec4(n, valid));
+}
+
+void main()
+{
+	pc = jobs[push.first_job + gl_WorkGroupID.z];
+	if (pc.mode == 2)
+		return;
+	int first, end;
+	patch_run(pc.P * pc.P, first, end);
+	ivec2 p = patch_run_start(first, pc.P);
+	for (int i = first + int(gl_LocalInvocationID.x); i < end; i += RUN_LANES) {
+		normal_at(p);
+		p = patch_run_next(p, pc.P);
+	}
 }

@@ -21,6 +21,8 @@
 
 #define MAX_BATCH 64
 #define IN_FLIGHT 3
+/* Items (quads or samples) per workgroup of the patch passes (shaders/patch_run.glsl). */
+#define RUN_ITEMS 1024u
 
 /* Twin of `Job` in shaders/patch_decode.comp and patch_normals.comp (std430). */
 struct job_params {
@@ -763,14 +765,17 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 	}
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
 	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
-	/* 8 x 8 workgroups: decode over (P + 3) / 2 quads per side, normals over P samples */
-	const uint32_t groups_e = ((c->P + 3) / 2 + 7) / 8, groups_p = (c->P + 7) / 8;
+	/* Workgroup x: runs of about RUN_ITEMS items, ((P + 3) / 2)^2 quads for decode and P^2
+	 * samples for normals; workgroup z: the job. */
+	const uint32_t quads = (c->P + 3) / 2;
+	const uint32_t runs_e = (quads * quads + RUN_ITEMS - 1) / RUN_ITEMS;
+	const uint32_t runs_p = (c->P * c->P + RUN_ITEMS - 1) / RUN_ITEMS;
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
-	vkCmdDispatch(cmd, groups_e, groups_e, b->n);
+	vkCmdDispatch(cmd, runs_e, 1, b->n);
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
-	vkCmdDispatch(cmd, groups_p, groups_p, b->n);
+	vkCmdDispatch(cmd, runs_p, 1, b->n);
 	/* Make the results visible to every later reader, and the flags to the host. */
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
 	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,

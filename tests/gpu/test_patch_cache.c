@@ -150,6 +150,8 @@ static void test_bit_exact_puget(void **state) { check_bit_exact(DEM_PUGET, 129,
 /* Three entropy workers finish out of order: children wait for their parents' batches. */
 static void test_bit_exact_alps(void **state) { check_bit_exact(DEM_ALPS, 129, 0.5, 3); }
 static void test_bit_exact_lux(void **state) { check_bit_exact(DEM_LUX, 65, 0.25, 1); }
+/* The largest patch size: 17 workgroup runs per patch in the decode pass, 65 in normals. */
+static void test_bit_exact_lux_257(void **state) { check_bit_exact(DEM_LUX, 257, 0.5, 2); }
 
 /* Every resident patch's parent is resident. */
 static void assert_tree_consistent(struct relief_patch_cache *c, const struct relief_file *f)
@@ -271,7 +273,9 @@ static void test_priority_and_dedup(void **state)
 		for (uint32_t id = 1; id <= 4; id++)
 			assert_int_equal(relief_patch_cache_request(c, id, prio[id]), 0);
 	uint32_t order[4], n = 0;
-	while (n < 4) {
+	/* Bounded: a patch that never becomes resident fails the test instead of hanging it. */
+	for (int spins = 0; n < 4; spins++) {
+		assert_true(spins < 50000); /* 10 s of 200 us naps */
 		assert_true(relief_patch_cache_update(c, 1) >= 0);
 		for (uint32_t id = 1; id <= 4; id++) {
 			bool seen = false;
@@ -387,6 +391,7 @@ int main(void)
 		cmocka_unit_test(test_bit_exact_puget),
 		cmocka_unit_test(test_bit_exact_alps),
 		cmocka_unit_test(test_bit_exact_lux),
+		cmocka_unit_test(test_bit_exact_lux_257),
 		cmocka_unit_test(test_budget_and_eviction),
 		cmocka_unit_test(test_priority_and_dedup),
 		cmocka_unit_test(test_corrupt_patch),
