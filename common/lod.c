@@ -94,8 +94,13 @@ float relief_box_distance(const struct relief_box *b)
 
 void relief_view_matrix(const struct relief_view *v, float out[16])
 {
+	relief_view_matrix_from(v, v->eye, out);
+}
+
+void relief_view_matrix_from(const struct relief_view *v, struct relief_vec3 origin, float out[16])
+{
 	struct relief_mat4 view, proj, vp;
-	relief_mat4_look_at((struct relief_vec3){ 0, 0, 0 }, relief_vec3_sub(v->target, v->eye),
+	relief_mat4_look_at(relief_vec3_sub(v->eye, origin), relief_vec3_sub(v->target, origin),
 	                    (struct relief_vec3){ 0, 0, 1 }, &view);
 	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
 	vp = relief_mat4_mul(&proj, &view);

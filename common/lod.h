@@ -50,6 +50,9 @@ float relief_box_distance(const struct relief_box *b);
 /* Camera-relative view-projection (the camera at the origin; Vulkan clip conventions,
  * reversed Z: depth 1 at the near plane, 0 at the far plane). */
 void relief_view_matrix(const struct relief_view *v, float out[16]);
+/* The same for positions relative to `origin` (world metres) instead of v's eye:
+ * relief_view_matrix_from(v, v->eye, m) equals relief_view_matrix(v, m) bit for bit. */
+void relief_view_matrix_from(const struct relief_view *v, struct relief_vec3 origin, float out[16]);
 /* True when the box lies entirely outside one plane of the frustum of `vp`. */
 bool relief_box_culled(const float vp[16], const struct relief_box *b);
 

@@ -36,5 +36,5 @@ void main()
 	vec3 p = pos_of(it, si, h);
 	if (down > 0.0)
 		p.z -= down * it.skirt;
-	gl_Position = pc.vp * vec4(p, 1.0);
+	gl_Position = draw_vp * vec4(p, 1.0);
 }

@@ -5,6 +5,9 @@ layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) readonly buffer Counters { uint drawn_count; uint draws; uint wants; uint curtains; } counters;
 layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame
 layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
+// The view-projection the picture is drawn with; equal to pc.vp unless the level of detail
+// was chosen for another camera (relief_draw_options.lod_view). pc.vp stays the LOD's.
+layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; };
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 10, rgba8_snorm) uniform readonly image2DArray normals;
 layout(std430, binding = 11) readonly buffer Errors { float block_err[]; };

@@ -76,8 +76,9 @@ struct counters {
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
- * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches). */
-#define BINDINGS 15u
+ * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches), 15 the draw
+ * camera's view-projection (float[16]). */
+#define BINDINGS 16u
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -102,6 +103,9 @@ struct relief_terrain {
 struct relief_terrain_view {
 	struct relief_terrain *t;
 	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, curtains;
+	/* float[16], host-visible: the view-projection positions are drawn with (the LOD's own
+	 * matrix is in the push constants) */
+	struct relief_vk_buffer camera;
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;
@@ -263,10 +267,11 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_quads + 8, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0)
+	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(float) * 16, storage, true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 13 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 14 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -291,7 +296,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
-		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer };
+		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -340,6 +345,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->drawn);
 	relief_vk_buffer_finish(vk, &v->factors);
 	relief_vk_buffer_finish(vk, &v->curtains);
+	relief_vk_buffer_finish(vk, &v->camera);
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);
@@ -362,7 +368,11 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		opts = &defaults;
 	const bool wire = opts->wire;
 	const char *why;
-	if (relief_view_check(view, &why) < 0)
+	/* The level of detail is chosen for lod (selection, block factors, seals), the picture
+	 * drawn from view; both give positions relative to lod's camera. */
+	const struct relief_view *lod = opts->lod_view ? opts->lod_view : view;
+	if (relief_view_check(view, &why) < 0 || relief_view_check(lod, &why) < 0 || lod->width != view->width ||
+	    lod->height != view->height)
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
@@ -370,16 +380,16 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (relief_patch_cache_state(t->cache, 0) == RELIEF_PATCH_ABSENT)
 		relief_patch_cache_request(t->cache, 0, -1.0f);
 	struct relief_view_origin o;
-	relief_view_origin(f, view, &o);
+	relief_view_origin(f, lod, &o);
 	struct select_push sp = {
 		.cell = { (int32_t)o.cell_x, (int32_t)o.cell_y },
 		.frac = { (float)o.frac_x, (float)o.frac_y },
 		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
 		.cam_z = (float)o.z,
-		.kappa = (float)relief_view_kappa(view),
+		.kappa = (float)relief_view_kappa(lod),
 		/* relief's own method leaves part of tau to the tessellator (lod.h); the baselines'
 		 * selections use the whole value they are given. */
-		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : view->tau) *
+		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : lod->tau) *
 		               (opts->fine == RELIEF_FINE_ERRORS ? RELIEF_LOD_COARSE_SHARE : 1.0)),
 		.frame = (uint32_t)frame,
 		.count = t->count,
@@ -389,10 +399,11 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.delta_finest = (float)f->hdr.tolerance,
 		.ratio = f->hdr.ratio,
 	};
-	relief_view_matrix(view, sp.vp);
+	relief_view_matrix(lod, sp.vp);
+	relief_view_matrix_from(view, lod->eye, v->camera.map);
 	struct draw_push dp = {
-		.viewport = { (float)view->width, (float)view->height },
-		.tau = (float)view->tau,
+		.viewport = { (float)lod->width, (float)lod->height },
+		.tau = (float)lod->tau,
 		.cam_z = (float)o.z,
 		.P = f->hdr.patch_size,
 		.blocks = t->blocks,

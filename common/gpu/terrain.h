@@ -50,6 +50,11 @@ struct relief_draw_options {
 	float target_px;              /* RELIEF_FINE_DISTANCE: wanted triangle width, pixels */
 	double select_tau;            /* > 0: tau for the coarse selection instead of view->tau */
 	bool no_skirts;               /* tests: draw no skirt, so that any crack stays open */
+	/* Non-NULL: choose the level of detail (selection, tessellation) for this view and draw
+	 * it from `view` (same viewport size): a frozen LOD, for measuring what LOD changes
+	 * alone do to the picture (`relief bench lod` popping) and for inspecting a view's LOD
+	 * from elsewhere. The view's hysteresis state is used and updated as for lod_view. */
+	const struct relief_view *lod_view;
 };
 
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then

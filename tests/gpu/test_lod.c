@@ -383,6 +383,65 @@ static void test_watertight_and_error_bound_alps(void **state)
 	watertight_and_error_bound(DEM_ALPS, poses, sizeof(poses) / sizeof(poses[0]));
 }
 
+/* A frozen level of detail (relief_draw_options.lod_view): drawn from its own camera it is
+ * the normal frame bit for bit; drawn from a camera 60 m further along the flight it keeps
+ * exactly that frame's patches and tessellation (the same primitive count) and stays
+ * watertight against a full-resolution render of the new camera, while a normal frame there
+ * does tessellate differently. */
+static void test_frozen_lod(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, DEM_PUGET);
+	struct scene s = b.s;
+	const struct pose pose = { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } };
+	struct relief_view v = pose_view(&pose), moved = v;
+	const double step[3] = { 40, 40, -20 }; /* 60 m towards the summit */
+	moved.eye.x += step[0], moved.eye.y += step[1], moved.eye.z += step[2];
+	moved.target.x += step[0], moved.target.y += step[1], moved.target.z += step[2];
+	float *frozen = malloc(sizeof(float) * BW * BH);
+	uint32_t *ids = malloc(4 * s.f->hdr.patch_count), *ids_frozen = malloc(4 * s.f->hdr.patch_count);
+	struct relief_terrain_stats st, st_moved, st_frozen;
+	render(&s, &moved, b.ref, &st); /* full resolution (tau 0.001), the new camera */
+	v.tau = moved.tau = 2.0;
+	render(&s, &moved, b.lod, &st_moved);
+	render(&s, &v, b.lod, &st);
+	uint32_t n, n_frozen;
+	drawn_levels(&s, ids, &n);
+	/* Its own camera: the same frame. */
+	const struct relief_draw_options self = { .lod_view = &v };
+	render_with(&s, &v, &self, frozen, &st_frozen);
+	assert_memory_equal(frozen, b.lod, sizeof(float) * BW * BH);
+	assert_int_equal(st_frozen.triangles, st.triangles);
+	/* From the moved camera. */
+	const struct relief_draw_options from_v = { .lod_view = &v };
+	render_with(&s, &moved, &from_v, frozen, &st_frozen);
+	drawn_levels(&s, ids_frozen, &n_frozen);
+	qsort(ids, n, 4, cmp_u32);
+	qsort(ids_frozen, n_frozen, 4, cmp_u32);
+	assert_int_equal(n_frozen, n);
+	assert_memory_equal(ids_frozen, ids, 4 * n);
+	print_message("frozen LOD: %llu primitives (its own frame %llu, a normal frame at the moved camera %llu)\n",
+	              (unsigned long long)st_frozen.triangles, (unsigned long long)st.triangles,
+	              (unsigned long long)st_moved.triangles);
+	assert_true(st.triangles > 0);
+	assert_int_equal(st_frozen.triangles, st.triangles);
+	assert_true(st_moved.triangles != st.triangles);
+	struct comparison c = compare(&s, &moved, b.ref, frozen, b.finest, b.fw, b.fh);
+	print_message("frozen LOD from the moved camera: %u holes, max vertical error %.3f px over %u pixels\n",
+	              c.holes, c.worst_px, c.both);
+	assert_int_equal(c.holes, 0);
+	assert_true(c.both > BW * BH / 8);
+	/* A different viewport size is refused. */
+	struct relief_view small = v;
+	small.width = BW / 2;
+	const struct relief_draw_options bad = { .lod_view = &small };
+	assert_int_equal(relief_terrain_draw(s.terrain, s.view, &moved, &s.target, 200, &bad, &st), -EINVAL);
+	free(frozen);
+	free(ids);
+	free(ids_frozen);
+	bound_close(&b);
+}
+
 /* Hard cases render cleanly: a camera inside the mountain, one exactly above a patch corner
  * and in the plane of two patch borders, one far outside the terrain, and extreme
  * thresholds. Every depth is a finite reversed-Z value in [0, 1] (no NaN), the draw succeeds
@@ -554,6 +613,7 @@ int main(void)
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_sealed_borders),
 		cmocka_unit_test(test_edge_curtain),
+		cmocka_unit_test(test_frozen_lod),
 		cmocka_unit_test(test_hard_views),
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_nodata_hidden),
