@@ -133,6 +133,8 @@ n=$(grep -c '"method":' <<<"$LAST_OUT")
 [ "$n" -eq 4 ] || { echo "FAIL bench lod records: $n"; fails=$((fails + 1)); }
 expect_text bench-lod-fields '"method":"relief","tau_px":1,"gpu_ms_median":'
 expect_text bench-lod-error-fields '"max_err_px":'
+expect_text bench-lod-popping '"popping_px":'
+expect_text bench-lod-camera-popping '"camera_popping_px":'
 expect_text bench-lod-runs '"frames":4,"runs":2,'
 vkcheck bench-lod-zero-runs 2 "$relief" bench lod "$tmp/ps.relief" --runs 0
 expect_text bench-lod-zero-runs-named "--runs"
