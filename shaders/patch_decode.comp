@@ -8,11 +8,14 @@
 // Corrupt input (values outside the codec's bounds) sets flags[flag]; the CPU then marks
 // the patch bad and never draws it.
 //
-// Work split: one step per 2 x 2 quad with its refined sample at even local (ex, ey),
-// ex, ey in [-2, P-1]: it writes the refined sample (ex, ey), the edge samples (ex+1, ey)
-// and (ex, ey+1) and the centre (ex+1, ey+1), those inside [-1, P]. Every lane then runs
-// the same code (no divergence between sample kinds) and needs four refined values. The
-// quads are walked in runs, one per workgroup (patch_run.glsl).
+// Work split: a quad is 2 x 2 samples with its refined sample at even local (ex, ey),
+// ex, ey in [-2, P-1]: its step writes the refined sample (ex, ey), the edge samples
+// (ex+1, ey) and (ex, ey+1) and the centre (ex+1, ey+1), those inside [-1, P]. Every lane
+// runs the same code (no divergence between sample kinds) and needs four refined values.
+// A lane takes SEG quads along a row and carries the two refined values a quad shares with
+// the next, so each is fetched twice instead of four times: a CPU implementation (lavapipe)
+// pays for every fetch lane by lane. The segments are walked in runs, one per workgroup
+// (patch_run.glsl).
 #extension GL_GOOGLE_include_directive : require
 #include "patch_run.glsl"
 
@@ -74,23 +77,27 @@ int residual(uint index)
 	return d;
 }
 
-void decode_quad(ivec2 g)
+const int SEG = 8;
+
+// Mode 1 (the root): the quad's values, copied.
+void copy_quad(int ex, int ey)
 {
-	int E = pc.P + 2;
+	int E = pc.P + 2, L = (pc.P + 1) >> 1;
+	uint values = pc.slot + uint(L * L);
+	for (int dy = 0; dy < 2; dy++)
+		for (int dx = 0; dx < 2; dx++) {
+			int x = ex + dx, y = ey + dy;
+			if (x >= -1 && y >= -1 && x <= pc.P && y <= pc.P)
+				put(x, y, st.data[values + uint((y + 1) * E + x + 1)]);
+		}
+}
+
+// The quad at (ex, ey) from its refined corners r00 (ex, ey), r10 (ex + 2, ey),
+// r01 (ex, ey + 2), r11 (ex + 2, ey + 2).
+void decode_quad(int ex, int ey, int r00, int r10, int r01, int r11)
+{
 	int L = (pc.P + 1) >> 1, odd = (pc.P + 3) >> 1, even = L;
 	uint values = pc.slot + uint(L * L);
-	int ex = 2 * g.x - 2, ey = 2 * g.y - 2;
-	if (pc.mode == 1) {
-		for (int dy = 0; dy < 2; dy++)
-			for (int dx = 0; dx < 2; dx++) {
-				int x = ex + dx, y = ey + dy;
-				if (x >= -1 && y >= -1 && x <= pc.P && y <= pc.P)
-					put(x, y, st.data[values + uint((y + 1) * E + x + 1)]);
-			}
-		return;
-	}
-	int r00 = refined(ex, ey), r10 = refined(ex + 2, ey);
-	int r01 = refined(ex, ey + 2), r11 = refined(ex + 2, ey + 2);
 	int x = ex + 1, y = ey + 1; // odd coordinates of this quad
 	put(ex, ey, r00);           // refined: inside only when ex, ey >= 0
 	// H plane sample (x, ey): index (ey / 2) * odd + (x + 1) / 2
@@ -110,11 +117,24 @@ void main()
 	if (pc.mode == 2)
 		return;
 	int quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
+	int segs = (quads + SEG - 1) / SEG; // per row of quads
 	int first, end;
-	patch_run(quads * quads, first, end);
-	ivec2 g = patch_run_start(first, quads);
+	patch_run(segs * quads, first, end);
+	ivec2 g = patch_run_start(first, segs); // (segment, row of quads)
 	for (int i = first + int(gl_LocalInvocationID.x); i < end; i += RUN_LANES) {
-		decode_quad(g);
-		g = patch_run_next(g, quads);
+		int ey = 2 * g.y - 2, q0 = g.x * SEG, q1 = min(q0 + SEG, quads);
+		if (pc.mode == 1) {
+			for (int q = q0; q < q1; q++)
+				copy_quad(2 * q - 2, ey);
+		} else {
+			int r00 = refined(2 * q0 - 2, ey), r01 = refined(2 * q0 - 2, ey + 2);
+			for (int q = q0; q < q1; q++) {
+				int ex = 2 * q - 2, r10 = refined(ex + 2, ey), r11 = refined(ex + 2, ey + 2);
+				decode_quad(ex, ey, r00, r10, r01, r11);
+				r00 = r10;
+				r01 = r11;
+			}
+		}
+		g = patch_run_next(g, segs);
 	}
 }
