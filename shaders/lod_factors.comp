@@ -10,14 +10,30 @@
 // 0 or powers of two up to 16, stored as bytes: outer in x, inner in y.
 layout(local_size_x = 64) in;
 
-// Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
-// v = 1 south) and inner; all zero discards the quad.
-void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
+// The seal record's corner part (terrain_seal.glsl) for a quad with corners s[] (patch
+// samples): the sealed height at the patch corner among them where a coarser patch is
+// drawn. One call site: a CPU implementation runs it, masked, for every lane.
+void seal_corner(Instance it, vec2 s[4], inout uvec4 seal)
 {
+	float last = float(pc.P - 1u), hs;
+	int at = -1;
+	for (int v = 0; v < 4; v++)
+		if ((s[v].x == 0.0 || s[v].x == last) && (s[v].y == 0.0 || s[v].y == last))
+			at = v;
+	if (at >= 0 && sealed_height(it, ivec2(s[at]), hs))
+		seal.zw = uvec2(floatBitsToUint(hs), 1u);
+}
+
+// Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
+// v = 1 south) and inner; all zero discards the quad. `seal`: its seal record.
+void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal)
+{
+	seal = uvec4(0u);
 	vec2 in_s[4];
 	float down;
 	for (uint v = 0u; v < 4u; v++)
 		in_s[v] = quad_corner(k, v, down);
+	seal_corner(it, in_s, seal);
 	int b = int(pc.blocks);
 	if (k < pc.blocks * pc.blocks) {
 		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
@@ -50,7 +66,12 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
 				continue;
 			}
 			float fc;
-			uint j = coarser_edge(it, bl, sides[i], fc);
+			int clayer;
+			uint j = coarser_edge(it, bl, sides[i], fc, clayer);
+			if (i % 2 == 0)
+				seal.x = seal_side(j, fc, clayer); // west or east
+			else
+				seal.y = seal_side(j, fc, clayer); // north or south
 			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : border_edge_factor(it, bl, sides[i]);
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
@@ -77,6 +98,7 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner)
 }
 
 layout(std430, binding = 13) writeonly buffer Factors { uvec2 factors[]; };
+layout(std430, binding = 16) writeonly buffer Seals { uvec4 seals[]; };
 
 void main()
 {
@@ -87,7 +109,9 @@ void main()
 	quad_of(q, slot, k);
 	vec4 o;
 	vec2 i;
-	quad_factors(inst[slot], k, o, i);
+	uvec4 seal;
+	quad_factors(inst[slot], k, o, i, seal);
+	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);
 	factors[q] = uvec2(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u));

@@ -12,7 +12,9 @@ layout(location = 3) in float in_down[];
 layout(location = 0) out flat uint out_slot[];
 layout(location = 2) out vec2 out_s[];
 layout(location = 3) out float out_down[];
+layout(location = 4) patch out uvec4 out_seal; // terrain_seal.glsl
 layout(std430, binding = 13) readonly buffer Factors { uvec2 factors[]; };
+layout(std430, binding = 16) readonly buffer Seals { uvec4 seals[]; };
 
 float byte_of(uint v, uint i) { return float((v >> (8u * i)) & 0xffu); }
 
@@ -30,4 +32,5 @@ void main()
 	gl_TessLevelOuter[3] = byte_of(f.x, 3u);
 	gl_TessLevelInner[0] = byte_of(f.y, 0u);
 	gl_TessLevelInner[1] = byte_of(f.y, 1u);
+	out_seal = seals[in_quad[0]];
 }

@@ -12,6 +12,7 @@ layout(quads, equal_spacing, ccw) in;
 layout(location = 0) in flat uint in_slot[];
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
+layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
 layout(location = 0) out vec3 out_normal;
 layout(location = 1) out float out_height;
 layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
@@ -26,9 +27,17 @@ void main()
 	ivec2 si = clamp(ivec2(s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
 	float h = sample_height(it, si);
 	int last = int(pc.P) - 1;
-	float hs;
-	if ((si.x == 0 || si.y == 0 || si.x == last || si.y == last) && sealed_height(it, si, hs))
-		h = hs; // on a coarser patch's drawn edge: no crack between levels
+	// On a coarser patch's drawn edge (no crack between levels): the height sealed_height()
+	// gives, from the record the factor pass wrote, so that this shader does no search.
+	bool ex = si.x == 0 || si.x == last, ey = si.y == 0 || si.y == last;
+	if (ex && ey) {
+		if (in_seal.w != 0u)
+			h = uintBitsToFloat(in_seal.z);
+	} else if (ex || ey) {
+		uint rec = ex ? in_seal.x : in_seal.y;
+		if ((rec & 7u) != 0u)
+			h = sealed_side_height(it, si, ex ? (si.x == 0 ? 2u : 3u) : (si.y == 0 ? 0u : 1u), rec);
+	}
 	out_normal = imageLoad(normals, ivec3(si, it.layer)).xyz;
 	out_s = vec2(si);
 	out_layer = it.layer;

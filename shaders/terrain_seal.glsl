@@ -27,13 +27,15 @@ Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
 // factor for its block edge that holds this one, and j. The caller draws this edge with
 // that patch's vertices only (factor fc / 2^j, at least 1) and the evaluation shader
 // puts them on its drawn edge, so the border has no crack and needs no skirt.
-uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc)
+uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer)
 {
 	uint cid;
 	uint j = coarser_across(it, side, cid);
 	fc = 0.0;
+	clayer = -1;
 	if (j == 0u)
 		return 0u;
+	clayer = layer_of[cid];
 	ivec2 q = neighbour_at(it, side) >> j;
 	Instance c = coarser_instance(it, cid, j, q);
 	int b = int(pc.blocks);
@@ -48,6 +50,48 @@ uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc)
 	          : c_side == 2u ? ivec2(0, c_along) : ivec2(last, c_along);
 	fc = border_edge_factor(c, cbl, c_side);
 	return j;
+}
+
+// Seal records (lod_factors.comp writes one per quad, the evaluation shader reads it): for a
+// block on the patch's border, x for its west or east side and y for its north or south
+// side: j (bits 0-2, 0: nothing coarser across), the coarser patch's samples per segment of
+// its drawn edge there (bits 3-7) and its layer (bits 8-31); z, w for the patch corner the
+// quad touches, if any: the height sealed_height() gives there (float bits) and 1, or 0.
+uint seal_side(uint j, float fc, int clayer)
+{
+	return j == 0u ? 0u : j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | (uint(clayer) << 8u);
+}
+
+// The height sealed_height() gives at si, a sample on border `side` of `it` that is not a
+// patch corner, from the seal record of the quad drawing it (j != 0). The coarser block
+// that holds this quad's block holds every vertex of its border edge but the two ends, and
+// there (a multiple of any step) both blocks give the same sample, so one record serves the
+// whole edge; the arithmetic is sealed_height()'s, so the bits are too.
+float sealed_side_height(Instance it, ivec2 si, uint side, uint rec)
+{
+	uint j = rec & 7u;
+	int step = int((rec >> 3u) & 31u), last = int(pc.P) - 1;
+	Instance c = it;
+	c.layer = int(rec >> 8u);
+	c.q2 = coarser_q2(it, j);
+	c.scale = it.scale << j;
+	ivec2 cell = ivec2(it.px, it.py) * (last * it.scale) - it.base; // the camera's cell
+	c.base = (neighbour_at(it, side) >> j) * (last * c.scale) - cell;
+	ivec2 o = it.base + si * it.scale - c.base; // relative to the coarser patch's sample 0
+	uint cside = side ^ 1u;                    // its border facing us
+	int along = cside >= 2u ? o.y : o.x;
+	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
+	int across = cside == 1u || cside == 3u ? last : 0;
+	ivec2 ma = cside >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
+	float ha = sample_height(c, ma);
+	float h = ha;
+	if (rem != 0) {
+		ivec2 mb = ma + (cside >= 2u ? ivec2(0, step) : ivec2(step, 0));
+		float hb = sample_height(c, mb);
+		precise float hm = mix(ha, hb, float(rem) / float(step_g));
+		h = hm;
+	}
+	return h;
 }
 
 // Height, in metres, at which every patch drawn around `it`'s border sample si puts a vertex

@@ -77,8 +77,8 @@ struct counters {
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
  * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches), 15 the draw
- * camera's view-projection (float[16]). */
-#define BINDINGS 16u
+ * camera's view-projection (float[16]), 16 seal records (uvec4 per quad, terrain_seal.glsl). */
+#define BINDINGS 17u
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -102,7 +102,7 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, curtains;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, curtains;
 	/* float[16], host-visible: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants) */
 	struct relief_vk_buffer camera;
@@ -267,11 +267,12 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_quads + 8, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(float) * 16, storage, true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 14 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 15 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -296,7 +297,8 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
-		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer };
+		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
+		                            v->seals.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -344,6 +346,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->instances);
 	relief_vk_buffer_finish(vk, &v->drawn);
 	relief_vk_buffer_finish(vk, &v->factors);
+	relief_vk_buffer_finish(vk, &v->seals);
 	relief_vk_buffer_finish(vk, &v->curtains);
 	relief_vk_buffer_finish(vk, &v->camera);
 	relief_vk_buffer_finish(vk, &v->cmds);
