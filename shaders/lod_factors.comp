@@ -72,7 +72,7 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4
 				seal.x = seal_side(j, fc, clayer); // west or east
 			else
 				seal.y = seal_side(j, fc, clayer); // north or south
-			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : border_edge_factor(it, bl, sides[i]);
+			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : drawn_border_factor(it, bl, sides[i]);
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		if (errors) { // isotropic: see the top of terrain_factors.glsl

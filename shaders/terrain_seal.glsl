@@ -4,6 +4,38 @@
 // coarser patch's vertices only, and puts every border vertex on the coarser patch's drawn
 // edge. Needs terrain_factors.glsl.
 
+// How many levels finer than `it` the patch drawn across its border block bl on `side` is,
+// when one patch covers that block edge there (1 to log2(blocks) levels finer), else 0.
+uint finer_across(Instance it, ivec2 bl, uint side)
+{
+	if (neighbour_id(it, side) < 0)
+		return 0u;
+	ivec2 q = neighbour_at(it, side);
+	if (drawn[first_id(it.level) + uint(q.y) * (1u << it.level) + uint(q.x)] != 0u)
+		return 0u;
+	int b = int(pc.blocks), along = side >= 2u ? bl.y : bl.x;
+	for (uint j = 1u; j <= uint(findMSB(b)); j++) {
+		uint l = it.level + j;
+		if (first_id(l) >= uint(drawn.length()))
+			break; // finer than the finest level
+		int m = 1 << j, a = along * m / b; // cells per side at level l; the one along bl
+		ivec2 c = side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : side == 3u ? ivec2(q.x * m, q.y * m + a)
+		        : side == 0u ? ivec2(q.x * m + a, q.y * m + m - 1) : ivec2(q.x * m + a, q.y * m);
+		if (drawn[first_id(l) + uint(c.y) * (1u << l) + uint(c.x)] != 0u)
+			return j;
+	}
+	return 0u;
+}
+
+// The factor `it` draws its border block bl's edge on `side` with when nothing coarser is
+// drawn across: border_edge_factor(), but at least 2^j where a patch j levels finer is
+// drawn across, so that every corner of that patch's blocks along the edge is a vertex
+// here too (no T-junction: its border is drawn with these vertices, terrain_seal.glsl).
+float drawn_border_factor(Instance it, ivec2 bl, uint side)
+{
+	return max(border_edge_factor(it, bl, side), float(1u << finer_across(it, bl, side)));
+}
+
 // Instance of the coarser patch cid, j levels above `it`, as its own selection wrote it.
 Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
 {
@@ -48,7 +80,7 @@ uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer
 	uint c_side = side ^ 1u; // the coarser patch's border facing us
 	ivec2 cbl = c_side == 0u ? ivec2(c_along, 0) : c_side == 1u ? ivec2(c_along, last)
 	          : c_side == 2u ? ivec2(0, c_along) : ivec2(last, c_along);
-	fc = border_edge_factor(c, cbl, c_side);
+	fc = drawn_border_factor(c, cbl, c_side);
 	return j;
 }
 
@@ -131,7 +163,7 @@ bool sealed_height(Instance it, ivec2 si, out float h)
 	int block_span = int(BLOCK_CELLS) * c.scale, b = int(pc.blocks);
 	int cb = min(along / block_span, b - 1);
 	ivec2 cbl = side == 0u ? ivec2(cb, 0) : side == 1u ? ivec2(cb, b - 1) : side == 2u ? ivec2(0, cb) : ivec2(b - 1, cb);
-	int step = int(BLOCK_CELLS) / int(border_edge_factor(c, cbl, side)); // coarser samples per segment
+	int step = int(BLOCK_CELLS) / int(drawn_border_factor(c, cbl, side)); // coarser samples per segment
 	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
 	int across = side == 0u ? 0 : side == 1u || side == 3u ? last : 0;
 	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
