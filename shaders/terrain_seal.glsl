@@ -94,6 +94,26 @@ uint seal_side(uint j, float fc, int clayer)
 	return j == 0u ? 0u : j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | (uint(clayer) << 8u);
 }
 
+// Height of patch c's border `side` as c draws it (segments of `step` of its samples), at
+// `along` finest samples from its sample 0: c's sample where it has a vertex, on the
+// segment between two elsewhere.
+float drawn_edge_height(Instance c, uint side, int along, int step)
+{
+	int last = int(pc.P) - 1;
+	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
+	int across = side == 1u || side == 3u ? last : 0;
+	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
+	float ha = sample_height(c, ma);
+	float h = ha;
+	if (rem != 0) {
+		ivec2 mb = ma + (side >= 2u ? ivec2(0, step) : ivec2(step, 0));
+		float hb = sample_height(c, mb);
+		precise float hm = mix(ha, hb, float(rem) / float(step_g));
+		h = hm;
+	}
+	return h;
+}
+
 // The height sealed_height() gives at si, a sample on border `side` of `it` that is not a
 // patch corner, from the seal record of the quad drawing it (j != 0). The coarser block
 // that holds this quad's block holds every vertex of its border edge but the two ends, and
@@ -111,19 +131,7 @@ float sealed_side_height(Instance it, ivec2 si, uint side, uint rec)
 	c.base = (neighbour_at(it, side) >> j) * (last * c.scale) - cell;
 	ivec2 o = it.base + si * it.scale - c.base; // relative to the coarser patch's sample 0
 	uint cside = side ^ 1u;                    // its border facing us
-	int along = cside >= 2u ? o.y : o.x;
-	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
-	int across = cside == 1u || cside == 3u ? last : 0;
-	ivec2 ma = cside >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
-	float ha = sample_height(c, ma);
-	float h = ha;
-	if (rem != 0) {
-		ivec2 mb = ma + (cside >= 2u ? ivec2(0, step) : ivec2(step, 0));
-		float hb = sample_height(c, mb);
-		precise float hm = mix(ha, hb, float(rem) / float(step_g));
-		h = hm;
-	}
-	return h;
+	return drawn_edge_height(c, cside, cside >= 2u ? o.y : o.x, step);
 }
 
 // Height, in metres, at which every patch drawn around `it`'s border sample si puts a vertex
@@ -164,16 +172,6 @@ bool sealed_height(Instance it, ivec2 si, out float h)
 	int cb = min(along / block_span, b - 1);
 	ivec2 cbl = side == 0u ? ivec2(cb, 0) : side == 1u ? ivec2(cb, b - 1) : side == 2u ? ivec2(0, cb) : ivec2(b - 1, cb);
 	int step = int(BLOCK_CELLS) / int(drawn_border_factor(c, cbl, side)); // coarser samples per segment
-	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
-	int across = side == 0u ? 0 : side == 1u || side == 3u ? last : 0;
-	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
-	float ha = sample_height(c, ma);
-	h = ha;
-	if (rem != 0) {
-		ivec2 mb = ma + (side >= 2u ? ivec2(0, step) : ivec2(step, 0));
-		float hb = sample_height(c, mb);
-		precise float hm = mix(ha, hb, float(rem) / float(step_g));
-		h = hm;
-	}
+	h = drawn_edge_height(c, side, along, step);
 	return true;
 }
