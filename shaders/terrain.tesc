@@ -13,6 +13,7 @@ layout(location = 0) out flat uint out_slot[];
 layout(location = 2) out vec2 out_s[];
 layout(location = 3) out float out_down[];
 layout(location = 4) patch out uvec4 out_seal; // terrain_seal.glsl
+layout(location = 5) patch out uvec4 out_inst[4]; // the quad's patch instance (instance_pack)
 layout(std430, binding = 13) readonly buffer Factors { uvec2 factors[]; };
 layout(std430, binding = 16) readonly buffer Seals { uvec4 seals[]; };
 
@@ -33,4 +34,5 @@ void main()
 	gl_TessLevelInner[0] = byte_of(f.y, 0u);
 	gl_TessLevelInner[1] = byte_of(f.y, 1u);
 	out_seal = seals[in_quad[0]];
+	instance_pack(inst[in_slot[0]], out_inst);
 }

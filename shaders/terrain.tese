@@ -13,6 +13,7 @@ layout(location = 0) in flat uint in_slot[];
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
+layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_pack)
 layout(location = 0) out vec3 out_normal;
 layout(location = 1) out float out_height;
 layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
@@ -20,7 +21,7 @@ layout(location = 3) flat out int out_layer;
 precise gl_Position; // shared border vertices get identical bits in both patches
 void main()
 {
-	Instance it = inst[in_slot[0]];
+	Instance it = instance_unpack(in_inst);
 	vec2 s = mix(mix(in_s[0], in_s[1], gl_TessCoord.x), mix(in_s[2], in_s[3], gl_TessCoord.x), gl_TessCoord.y);
 	float down = mix(mix(in_down[0], in_down[1], gl_TessCoord.x), mix(in_down[2], in_down[3], gl_TessCoord.x),
 	                 gl_TessCoord.y);
