@@ -9,7 +9,6 @@ layout(location = 0) in flat uint in_slot[];
 layout(location = 1) in flat uint in_quad[];
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
-layout(location = 0) out flat uint out_slot[];
 layout(location = 2) out vec2 out_s[];
 layout(location = 3) out float out_down[];
 layout(location = 4) patch out uvec4 out_seal; // terrain_seal.glsl
@@ -21,7 +20,6 @@ float byte_of(uint v, uint i) { return float((v >> (8u * i)) & 0xffu); }
 
 void main()
 {
-	out_slot[gl_InvocationID] = in_slot[gl_InvocationID];
 	out_s[gl_InvocationID] = in_s[gl_InvocationID];
 	out_down[gl_InvocationID] = in_down[gl_InvocationID];
 	if (gl_InvocationID != 0)

@@ -9,7 +9,6 @@
 // by pos_of() so that patches sharing a border put its vertices at the same bits. A border
 // vertex next to a coarser patch takes its height on that patch's drawn edge.
 layout(quads, equal_spacing, ccw) in;
-layout(location = 0) in flat uint in_slot[];
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
