@@ -10,30 +10,36 @@
 // 0 or powers of two up to 16, stored as bytes: outer in x, inner in y.
 layout(local_size_x = 64) in;
 
+// What lod_borders.comp computed for drawn patch `slot`: border block edge `a` (along the
+// border) on `side` (0 north, 1 south, 2 west, 3 east): (outer factor, seal side record);
+// corner c (bit 0 east, bit 1 south): (sealed height bits, 1) or (, 0).
+layout(std430, binding = 17) readonly buffer Borders { uvec2 borders[]; };
+uvec2 border_edge(uint slot, uint side, int a) { return borders[slot * (4u * pc.blocks + 4u) + side * pc.blocks + uint(a)]; }
+uvec2 border_corner(uint slot, uint c) { return borders[slot * (4u * pc.blocks + 4u) + 4u * pc.blocks + c]; }
+
 // The seal record's corner part (terrain_seal.glsl) for a quad with corners s[] (patch
-// samples): the sealed height at the patch corner among them where a coarser patch is
-// drawn. One call site: a CPU implementation runs it, masked, for every lane.
-void seal_corner(Instance it, vec2 s[4], inout uvec4 seal)
+// samples): the sealed height at the patch corner among them, if any.
+void seal_corner(uint slot, vec2 s[4], inout uvec4 seal)
 {
-	float last = float(pc.P - 1u), hs;
-	int at = -1;
+	float last = float(pc.P - 1u);
 	for (int v = 0; v < 4; v++)
-		if ((s[v].x == 0.0 || s[v].x == last) && (s[v].y == 0.0 || s[v].y == last))
-			at = v;
-	if (at >= 0 && sealed_height(it, ivec2(s[at]), hs))
-		seal.zw = uvec2(floatBitsToUint(hs), 1u);
+		if ((s[v].x == 0.0 || s[v].x == last) && (s[v].y == 0.0 || s[v].y == last)) {
+			uvec2 rec = border_corner(slot, (s[v].x == last ? 1u : 0u) | (s[v].y == last ? 2u : 0u));
+			if (rec.y != 0u)
+				seal.zw = rec;
+		}
 }
 
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
 // v = 1 south) and inner; all zero discards the quad. `seal`: its seal record.
-void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal)
+void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal)
 {
 	seal = uvec4(0u);
 	vec2 in_s[4];
 	float down;
 	for (uint v = 0u; v < 4u; v++)
 		in_s[v] = quad_corner(k, v, down);
-	seal_corner(it, in_s, seal);
+	seal_corner(slot, in_s, seal);
 	int b = int(pc.blocks);
 	if (k < pc.blocks * pc.blocks) {
 		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
@@ -65,14 +71,12 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4
 				}
 				continue;
 			}
-			float fc;
-			int clayer;
-			uint j = coarser_edge(it, bl, sides[i], fc, clayer);
+			uvec2 rec = border_edge(slot, sides[i], sides[i] >= 2u ? bl.y : bl.x);
 			if (i % 2 == 0)
-				seal.x = seal_side(j, fc, clayer); // west or east
+				seal.x = rec.y; // west or east
 			else
-				seal.y = seal_side(j, fc, clayer); // north or south
-			f[i] = j != 0u ? max(1.0, fc / float(1u << j)) : drawn_border_factor(it, bl, sides[i]);
+				seal.y = rec.y; // north or south
+			f[i] = float(rec.x);
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		if (errors) { // isotropic: see the top of terrain_factors.glsl
@@ -90,8 +94,7 @@ void quad_factors(Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4
 			inner = vec2(0.0);
 			return;
 		}
-		ivec2 bl = side == 0u ? ivec2(i, 0) : side == 1u ? ivec2(i, b - 1) : side == 2u ? ivec2(0, i) : ivec2(b - 1, i);
-		float f = border_edge_factor(it, bl, side);
+		float f = float(border_edge(slot, side, i).x);
 		outer = vec4(1.0, f, 1.0, f);
 		inner = vec2(f, 1.0);
 	}
@@ -110,7 +113,7 @@ void main()
 	vec4 o;
 	vec2 i;
 	uvec4 seal;
-	quad_factors(inst[slot], k, o, i, seal);
+	quad_factors(slot, inst[slot], k, o, i, seal);
 	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);

@@ -10,6 +10,7 @@
 #include "terrain.h"
 
 #include "lod_commands.comp.spv.h"
+#include "lod_borders.comp.spv.h"
 #include "lod_factors.comp.spv.h"
 #include "lod_select.comp.spv.h"
 #include "terrain.frag.spv.h"
@@ -68,6 +69,7 @@ _Static_assert(sizeof(struct instance) == 64, "instance");
 struct counters {
 	uint32_t drawn, draws, wants, curtains;
 	uint32_t factor_groups[4]; /* VkDispatchIndirectCommand for lod_factors.comp, then padding */
+	uint32_t border_groups[4]; /* the same for lod_borders.comp */
 };
 
 /* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts. */
@@ -77,8 +79,9 @@ struct counters {
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
  * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches), 15 the draw
- * camera's view-projection (float[16]), 16 seal records (uvec4 per quad, terrain_seal.glsl). */
-#define BINDINGS 17u
+ * camera's view-projection (float[16]), 16 seal records (uvec4 per quad, terrain_seal.glsl),
+ * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp). */
+#define BINDINGS 18u
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -92,7 +95,7 @@ struct relief_terrain {
 	struct relief_vk_buffer info;
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
-	VkPipeline select, commands, factors, draw_fill, draw_wire;
+	VkPipeline select, commands, borders, factors, draw_fill, draw_wire;
 	VkQueryPool stats_pool;
 	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
@@ -102,7 +105,7 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, curtains;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains;
 	/* float[16], host-visible: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants) */
 	struct relief_vk_buffer camera;
@@ -193,6 +196,8 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &t->select)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv),
 	                                             &t->commands)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv),
+	                                             &t->borders)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv),
 	                                             &t->factors)) < 0)
 		goto fail;
@@ -231,8 +236,8 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[5] = { t->select, t->commands, t->factors, t->draw_fill, t->draw_wire };
-	for (int i = 0; i < 5; i++)
+	VkPipeline pipes[6] = { t->select, t->commands, t->borders, t->factors, t->draw_fill, t->draw_wire };
+	for (int i = 0; i < 6; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
 	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };
@@ -268,11 +273,13 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_quads + 8, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage,
+	                                 false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(float) * 16, storage, true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 15 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 16 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -298,7 +305,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
-		                            v->seals.buffer };
+		                            v->seals.buffer, v->borders.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -347,6 +354,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->drawn);
 	relief_vk_buffer_finish(vk, &v->factors);
 	relief_vk_buffer_finish(vk, &v->seals);
+	relief_vk_buffer_finish(vk, &v->borders);
 	relief_vk_buffer_finish(vk, &v->curtains);
 	relief_vk_buffer_finish(vk, &v->camera);
 	relief_vk_buffer_finish(vk, &v->cmds);
@@ -459,8 +467,13 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
+	/* The border edges and corners first (lod_borders.comp), then every quad. */
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->borders);
+	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, border_groups));
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |

@@ -1,0 +1,40 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "terrain_common.glsl"
+#include "terrain_draw.glsl"
+#include "terrain_factors.glsl"
+#include "terrain_seal.glsl"
+// The border work of the factor pass, apart: for every drawn patch, each block edge on its
+// border (4 x blocks) and each of its corners (4), one invocation. An edge gets the outer
+// factor the patch draws it with (matched to a coarser patch across, or at least 2^j
+// segments for a patch j levels finer, terrain_seal.glsl) and its seal record; a corner
+// the height sealed_height() gives there. lod_factors.comp reads them. Apart, because a
+// CPU implementation (lavapipe) runs a shader's searches, masked, for every lane: in the
+// factor pass they cost every quad, here only the border's.
+layout(local_size_x = 64) in;
+
+layout(std430, binding = 17) writeonly buffer Borders { uvec2 borders[]; };
+
+void main()
+{
+	uint per = 4u * pc.blocks + 4u, i = gl_GlobalInvocationID.x, slot = i / per, r = i % per;
+	if (slot >= counters.drawn_count)
+		return;
+	Instance it = inst[slot];
+	int b = int(pc.blocks), last = int(pc.P) - 1;
+	if (r < 4u * pc.blocks) {
+		uint side = r / pc.blocks; // 0 north, 1 south, 2 west, 3 east
+		int a = int(r % pc.blocks);
+		ivec2 bl = side == 0u ? ivec2(a, 0) : side == 1u ? ivec2(a, b - 1) : side == 2u ? ivec2(0, a) : ivec2(b - 1, a);
+		float fc;
+		int clayer;
+		uint j = coarser_edge(it, bl, side, fc, clayer);
+		float f = j != 0u ? max(1.0, fc / float(1u << j)) : drawn_border_factor(it, bl, side);
+		borders[i] = uvec2(uint(f), seal_side(j, fc, clayer));
+	} else {
+		uint c = r - 4u * pc.blocks; // bit 0 east, bit 1 south
+		float hs;
+		bool sealed = sealed_height(it, ivec2((c & 1u) != 0u ? last : 0, (c & 2u) != 0u ? last : 0), hs);
+		borders[i] = uvec2(floatBitsToUint(hs), sealed ? 1u : 0u);
+	}
+}
