@@ -21,11 +21,10 @@ void main()
 	if (slot >= counters.drawn_count)
 		return;
 	Instance it = inst[slot];
-	int b = int(pc.blocks), last = int(pc.P) - 1;
+	int last = int(pc.P) - 1;
 	if (r < 4u * pc.blocks) {
 		uint side = r / pc.blocks; // 0 north, 1 south, 2 west, 3 east
-		int a = int(r % pc.blocks);
-		ivec2 bl = side == 0u ? ivec2(a, 0) : side == 1u ? ivec2(a, b - 1) : side == 2u ? ivec2(0, a) : ivec2(b - 1, a);
+		ivec2 bl = border_block(side, int(r % pc.blocks));
 		float fc;
 		int clayer;
 		uint j = coarser_edge(it, bl, side, fc, clayer);

@@ -102,9 +102,7 @@ void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout float
 	int nid = neighbour_id(it, side);
 	if (nid < 0 || layer_of[nid] < 0)
 		return;
-	int last = int(pc.blocks) - 1;
-	ivec2 across = side == 0u ? ivec2(bl.x, last) : side == 1u ? ivec2(bl.x, 0) : side == 2u ? ivec2(last, bl.y)
-	             : ivec2(0, bl.y);
+	ivec2 across = border_block(side ^ 1u, side >= 2u ? bl.y : bl.x); // its block facing bl
 	eps = max(eps, block_eps_at(layer_of[nid], across));
 	err = max(err, info[nid].err);
 }

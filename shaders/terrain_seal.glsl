@@ -36,22 +36,30 @@ float drawn_border_factor(Instance it, ivec2 bl, uint side)
 	return max(border_edge_factor(it, bl, side), float(1u << finer_across(it, bl, side)));
 }
 
-// Instance of the coarser patch cid, j levels above `it`, as its own selection wrote it.
-Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
+// The patch j levels above `it` at position q of its level, where its own selection would
+// place it: level, quantum, scale and samples; id, layer, err and skirt are left as `it`'s.
+Instance coarser_at(Instance it, uint j, ivec2 q)
 {
 	int cells = int(pc.P) - 1;
 	ivec2 cell = ivec2(it.px, it.py) * (cells * it.scale) - it.base; // the camera's cell
 	Instance c = it;
-	c.id = cid;
-	c.layer = layer_of[cid];
 	c.level = it.level - j;
 	c.q2 = coarser_q2(it, j);
 	c.scale = it.scale << j;
 	c.base = q * (cells * c.scale) - cell;
-	c.err = info[cid].err;
-	c.skirt = info[cid].skirt;
 	c.px = uint(q.x);
 	c.py = uint(q.y);
+	return c;
+}
+
+// Instance of the coarser patch cid, j levels above `it` at q, as its own selection wrote it.
+Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
+{
+	Instance c = coarser_at(it, j, q);
+	c.id = cid;
+	c.layer = layer_of[cid];
+	c.err = info[cid].err;
+	c.skirt = info[cid].skirt;
 	return c;
 }
 
@@ -76,11 +84,8 @@ uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer
 	bool vertical = side >= 2u; // west or east border: along runs north to south
 	int along = (vertical ? int(it.py) : int(it.px)) * b + (vertical ? bl.y : bl.x);
 	int c_along = (along >> j) - (vertical ? q.y : q.x) * b;
-	int last = b - 1;
 	uint c_side = side ^ 1u; // the coarser patch's border facing us
-	ivec2 cbl = c_side == 0u ? ivec2(c_along, 0) : c_side == 1u ? ivec2(c_along, last)
-	          : c_side == 2u ? ivec2(0, c_along) : ivec2(last, c_along);
-	fc = drawn_border_factor(c, cbl, c_side);
+	fc = drawn_border_factor(c, border_block(c_side, c_along), c_side);
 	return j;
 }
 
@@ -122,13 +127,9 @@ float drawn_edge_height(Instance c, uint side, int along, int step)
 float sealed_side_height(Instance it, ivec2 si, uint side, uint rec)
 {
 	uint j = rec & 7u;
-	int step = int((rec >> 3u) & 31u), last = int(pc.P) - 1;
-	Instance c = it;
+	int step = int((rec >> 3u) & 31u);
+	Instance c = coarser_at(it, j, neighbour_at(it, side) >> j);
 	c.layer = int(rec >> 8u);
-	c.q2 = coarser_q2(it, j);
-	c.scale = it.scale << j;
-	ivec2 cell = ivec2(it.px, it.py) * (last * it.scale) - it.base; // the camera's cell
-	c.base = (neighbour_at(it, side) >> j) * (last * c.scale) - cell;
 	ivec2 o = it.base + si * it.scale - c.base; // relative to the coarser patch's sample 0
 	uint cside = side ^ 1u;                    // its border facing us
 	return drawn_edge_height(c, cside, cside >= 2u ? o.y : o.x, step);
@@ -170,8 +171,7 @@ bool sealed_height(Instance it, ivec2 si, out float h)
 	int along = side >= 2u ? o.y : o.x;
 	int block_span = int(BLOCK_CELLS) * c.scale, b = int(pc.blocks);
 	int cb = min(along / block_span, b - 1);
-	ivec2 cbl = side == 0u ? ivec2(cb, 0) : side == 1u ? ivec2(cb, b - 1) : side == 2u ? ivec2(0, cb) : ivec2(b - 1, cb);
-	int step = int(BLOCK_CELLS) / int(drawn_border_factor(c, cbl, side)); // coarser samples per segment
+	int step = int(BLOCK_CELLS) / int(drawn_border_factor(c, border_block(side, cb), side)); // coarser samples per segment
 	h = drawn_edge_height(c, side, along, step);
 	return true;
 }
