@@ -103,12 +103,15 @@ __attribute__((always_inline)) static inline unsigned rans_decode_sym16(struct r
 	uint32_t lo = (uint32_t)m->c[s];
 	uint32_t hi = s == 15 ? (1u << RC_CDF_BITS) : (uint32_t)m->c[s + 1];
 	uint32_t x = (hi - lo) * (d->x >> RC_CDF_BITS) + slot - lo;
-	/* Refill without a data-dependent branch: the word is read anyway, used if needed. */
+	/* Refill without a data-dependent branch: the word is read anyway, used if needed. A
+	 * refill is about as likely as not (a 16-bit word per ~1-2 symbols), so a branch would be
+	 * mispredicted often; written as shifts and masks, which compilers do not turn back into
+	 * one (a conditional expression here compiled to a branch). */
 	uint32_t need = x < RANS_L;
 	uint32_t w = rans_read16(d);
-	d->overrun |= need && d->end - d->p < 2;
-	x = need ? (x << 16 | w) : x;
-	d->p += need ? 2 : 0;
+	d->overrun |= need & (d->end - d->p < 2);
+	x = (x << (need << 4)) | (w & (0u - need));
+	d->p += need << 1;
 	d->x = x;
 	rc_cdf16_update(m, s);
 	return s;
@@ -120,11 +123,14 @@ static inline bool rans_dec_done(const struct rans_dec *d)
 	return !d->overrun && d->x == RANS_L && d->p == d->end;
 }
 
+/* Bits are taken from the low end of acc, which holds n of them; p is the next byte to
+ * load. Reads past the end load zeros and count them in `phantom`, so that the bits used
+ * are known without a per-read counter: bitreader_consumed(). */
 struct bitreader {
 	uint64_t acc;
 	unsigned n;
-	const uint8_t *p, *end;
-	uint64_t consumed, available; /* bits */
+	const uint8_t *p, *end, *start;
+	uint64_t phantom; /* zero bits loaded past the end */
 };
 
 static inline void bitreader_init(struct bitreader *b, const uint8_t *buf, size_t size)
@@ -133,8 +139,19 @@ static inline void bitreader_init(struct bitreader *b, const uint8_t *buf, size_
 	b->n = 0;
 	b->p = buf;
 	b->end = buf + size;
-	b->consumed = 0;
-	b->available = (uint64_t)size * 8;
+	b->start = buf;
+	b->phantom = 0;
+}
+
+/* Bits read so far, and bits in the stream. */
+static inline uint64_t bitreader_consumed(const struct bitreader *b)
+{
+	return (uint64_t)(b->p - b->start) * 8 + b->phantom - b->n;
+}
+
+static inline uint64_t bitreader_available(const struct bitreader *b)
+{
+	return (uint64_t)(b->end - b->start) * 8;
 }
 
 static inline uint32_t bitreader_get(struct bitreader *b, unsigned bits) /* bits <= 24 */
@@ -150,7 +167,10 @@ static inline uint32_t bitreader_get(struct bitreader *b, unsigned bits) /* bits
 			b->n |= 56;
 		} else {
 			while (b->n <= 56) {
-				b->acc |= (uint64_t)(b->p < b->end ? *b->p++ : 0) << b->n;
+				if (b->p < b->end)
+					b->acc |= (uint64_t)*b->p++ << b->n;
+				else
+					b->phantom += 8;
 				b->n += 8;
 			}
 		}
@@ -158,6 +178,5 @@ static inline uint32_t bitreader_get(struct bitreader *b, unsigned bits) /* bits
 	uint32_t v = (uint32_t)(b->acc & ((1ull << bits) - 1));
 	b->acc >>= bits;
 	b->n -= bits;
-	b->consumed += bits;
 	return v;
 }
