@@ -40,6 +40,94 @@ static void planes(const struct relief_patch_geom *g, struct plane p[3])
 	p[2] = (struct plane){ odd, odd, -1, -1 };
 }
 
+void relief_window_full(const struct relief_patch_geom *g, struct relief_window *w)
+{
+	*w = (struct relief_window){ -1, -1, (int32_t)g->P + 1, (int32_t)g->P + 1, false, false };
+}
+
+/* The indices [a, b) of a plane's or the labels' samples along one axis (local positions
+ * origin + 2i, i < n) that fall inside [lo, hi). */
+struct span {
+	uint32_t a, b;
+};
+
+static uint32_t span_bound(int64_t lim, int origin, uint32_t n)
+{
+	int64_t t = lim - origin; /* first index at or beyond lim: ceil(t / 2) */
+	int64_t i = t <= 0 ? 0 : (t + 1) / 2;
+	return i > (int64_t)n ? n : (uint32_t)i;
+}
+
+static struct span span_of(int32_t lo, int32_t hi, int origin, uint32_t n)
+{
+	struct span s = { span_bound(lo, origin, n), span_bound(hi, origin, n) };
+	if (s.b < s.a)
+		s.b = s.a;
+	return s;
+}
+
+/* What a window covers of one w x h array (a residual plane, or the labels): the rectangle
+ * su x sv, then, coded after it, the rest of row 0 (tail_row: the window's ring_north,
+ * for a plane whose row 0 is local y = -1) and the rest of column 0 (tail_col). */
+struct cover {
+	struct span su, sv;
+	bool tail_row, tail_col;
+};
+
+static struct cover cover_of(const struct relief_window *win, int x0, int y0, uint32_t w, uint32_t h)
+{
+	struct cover c = { span_of(win->x0, win->x1, x0, w), span_of(win->y0, win->y1, y0, h), false, false };
+	c.tail_row = win->ring_north && y0 == -1 && c.sv.a == 0 && c.sv.b > 0 && c.su.b < w;
+	c.tail_col = win->ring_west && x0 == -1 && c.su.a == 0 && c.su.b > 0 && c.sv.b < h;
+	return c;
+}
+
+/* The root codes its E x E values in raster order (storage index = local + 1), step 1. */
+static struct cover root_cover(const struct relief_window *win, uint32_t E)
+{
+	struct cover c = { { 0, E }, { 0, E }, false, false };
+	if (win) {
+		int32_t lo[2] = { win->x0, win->y0 }, hi[2] = { win->x1, win->y1 };
+		struct span *sp[2] = { &c.su, &c.sv };
+		for (int a = 0; a < 2; a++) {
+			int64_t l = (int64_t)lo[a] + 1, h = (int64_t)hi[a] + 1;
+			sp[a]->a = l <= 0 ? 0 : l >= E ? E : (uint32_t)l;
+			sp[a]->b = h <= sp[a]->a ? sp[a]->a : h >= E ? E : (uint32_t)h;
+		}
+	}
+	return c;
+}
+
+static bool cover_full(const struct cover *c, uint32_t w, uint32_t h)
+{
+	return c->su.a == 0 && c->su.b == w && c->sv.a == 0 && c->sv.b == h;
+}
+
+static bool covered(const struct cover *c, uint32_t u, uint32_t r)
+{
+	return (u >= c->su.a && u < c->su.b && r >= c->sv.a && r < c->sv.b) ||
+	       (c->tail_row && r == 0 && u >= c->su.b) || (c->tail_col && u == 0 && r >= c->sv.b);
+}
+
+/* True when every value of the w x h array outside the cover is 0. */
+static bool outside_zero32(const int32_t *v, uint32_t w, uint32_t h, const struct cover *c)
+{
+	for (uint32_t r = 0; r < h; r++)
+		for (uint32_t u = 0; u < w; u++)
+			if (v[(size_t)r * w + u] && !covered(c, u, r))
+				return false;
+	return true;
+}
+
+static bool outside_zero8(const int8_t *v, uint32_t w, uint32_t h, const struct cover *c)
+{
+	for (uint32_t r = 0; r < h; r++)
+		for (uint32_t u = 0; u < w; u++)
+			if (v[(size_t)r * w + u] && !covered(c, u, r))
+				return false;
+	return true;
+}
+
 /* Refined values over even local positions -2..P+1 (R x R): k * parent, plus the label
  * where the position is inside the patch. */
 static void refined_values(const struct relief_patch_geom *g, uint32_t k, unsigned quadrant,
@@ -356,17 +444,27 @@ static void put_residual(struct encoder *e, int stream, int plane, unsigned c, i
 	}
 }
 
-static void put_plane(struct encoder *e, int p, const int32_t *v, uint32_t w, uint32_t h)
+/* Rows sv.a, sv.a + 2, ... of the cover's rectangle go to stream 0 and the rows after
+ * them to stream 1, then its tails to stream 0. Values outside the cover are 0, so
+ * plane_context() sees what the decoder sees. */
+static void put_plane(struct encoder *e, int p, const int32_t *v, uint32_t w, uint32_t h, const struct cover *c)
 {
-	uint32_t row = 0;
-	for (; row + 1 < h; row += 2)
-		for (uint32_t u = 0; u < w; u++) {
+	struct span su = c->su, sv = c->sv;
+	uint32_t row = sv.a;
+	for (; row + 1 < sv.b; row += 2)
+		for (uint32_t u = su.a; u < su.b; u++) {
 			put_residual(e, 0, p, plane_context(v, w, u, row), v[row * w + u]);
 			put_residual(e, 1, p, plane_context(v, w, u, row + 1), v[(row + 1) * w + u]);
 		}
-	if (row < h)
-		for (uint32_t u = 0; u < w; u++)
+	if (row < sv.b)
+		for (uint32_t u = su.a; u < su.b; u++)
 			put_residual(e, 0, p, plane_context(v, w, u, row), v[row * w + u]);
+	if (c->tail_row)
+		for (uint32_t u = su.b; u < w; u++)
+			put_residual(e, 0, p, plane_context(v, w, u, 0), v[u]);
+	if (c->tail_col)
+		for (uint32_t r = sv.b; r < h; r++)
+			put_residual(e, 0, p, plane_context(v, w, 0, r), v[r * w]);
 }
 
 static inline unsigned label_symbol(int8_t r)
@@ -374,37 +472,57 @@ static inline unsigned label_symbol(int8_t r)
 	return r == 0 ? 0 : r > 0 ? 1 : 2;
 }
 
-int relief_patch_encode(const struct relief_patch_geom *g, bool root, const int8_t *labels,
-                        const int32_t *residuals, uint8_t **out, size_t *out_size)
+int relief_patch_encode(const struct relief_patch_geom *g, bool root, const struct relief_window *win,
+                        const int8_t *labels, const int32_t *residuals, uint8_t **out, size_t *out_size)
 {
+	struct relief_window full;
+	if (!win) {
+		relief_window_full(g, &full);
+		win = &full;
+	}
 	struct encoder *e = calloc(1, sizeof(*e));
 	if (!e)
 		return -ENOMEM;
 	stream_models_init(&e->m[0]);
 	stream_models_init(&e->m[1]);
+	bool outside_ok = true;
 	if (root) {
-		put_plane(e, 0, residuals, g->E, g->E);
+		struct cover rc = root_cover(win, g->E);
+		outside_ok = outside_zero32(residuals, g->E, g->E, &rc);
+		put_plane(e, 0, residuals, g->E, g->E, &rc);
 	} else {
 		const uint32_t L = g->L;
-		uint32_t j = 0;
-		for (; j + 1 < L; j += 2)
-			for (uint32_t i = 0; i < L; i++) {
+		struct cover lc = cover_of(win, 0, 0, L, L);
+		struct span si = lc.su, sj = lc.sv;
+		outside_ok = outside_zero8(labels, L, L, &lc);
+		uint32_t j = sj.a;
+		for (; j + 1 < sj.b; j += 2)
+			for (uint32_t i = si.a; i < si.b; i++) {
 				rans_record_put(&e->rec[0], &e->m[0].labels[label_context(labels, L, i, j)],
 				                label_symbol(labels[j * L + i]));
 				rans_record_put(&e->rec[1], &e->m[1].labels[label_context(labels, L, i, j + 1)],
 				                label_symbol(labels[(j + 1) * L + i]));
 			}
-		if (j < L)
-			for (uint32_t i = 0; i < L; i++)
+		if (j < sj.b)
+			for (uint32_t i = si.a; i < si.b; i++)
 				rans_record_put(&e->rec[0], &e->m[0].labels[label_context(labels, L, i, j)],
 				                label_symbol(labels[j * L + i]));
 		struct plane pl[3];
 		planes(g, pl);
 		const int32_t *v = residuals;
 		for (int p = 0; p < 3; p++) {
-			put_plane(e, p, v, pl[p].w, pl[p].h);
+			struct cover c = cover_of(win, pl[p].x0, pl[p].y0, pl[p].w, pl[p].h);
+			outside_ok &= outside_zero32(v, pl[p].w, pl[p].h, &c);
+			put_plane(e, p, v, pl[p].w, pl[p].h, &c);
 			v += (size_t)pl[p].w * pl[p].h;
 		}
+	}
+	if (!outside_ok) {
+		free(e->rec[0].sym);
+		free(e->rec[1].sym);
+		free(e->bits.buf);
+		free(e);
+		return -EINVAL;
 	}
 	bitwriter_flush(&e->bits);
 	uint8_t *s0 = NULL, *s1 = NULL, *buf = NULL;
@@ -482,16 +600,21 @@ __attribute__((always_inline)) static inline int32_t get_residual(struct decoder
 
 /* Contexts come from the classes the symbols give (class_of() of the values, which the
  * encoder uses), so the raw bits stay off the chain from one symbol to the next context. */
-static void get_plane(struct decoder *dc, struct stream_models m[2], int p, int32_t *v, uint32_t w, uint32_t h)
+static void get_plane(struct decoder *dc, struct stream_models m[2], int p, int32_t *v, uint32_t w, uint32_t h,
+                      const struct cover *c)
 {
 	uint8_t up[RELIEF_PATCH_MAX + 2]; /* classes of the row above: w <= P + 2 (the root's plane) */
 	memset(up, 0, w);
+	const struct span su = c->su, sv = c->sv;
+	const bool full = cover_full(c, w, h);
+	if (!full)
+		memset(v, 0, sizeof(*v) * w * h);
 	struct rc_cdf16 *res0 = m[0].res[p], *res1 = m[1].res[p];
-	uint32_t row = 0;
-	for (; row + 1 < h; row += 2) {
+	uint32_t row = sv.a;
+	for (; row + 1 < sv.b; row += 2) {
 		int32_t *a = v + row * w, *b = a + w;
 		unsigned left_a = 0, left_b = 0, ca, cb;
-		for (uint32_t u = 0; u < w; u++) {
+		for (uint32_t u = su.a; u < su.b; u++) {
 			a[u] = get_residual(dc, 0, &res0[class_activity[left_a][up[u]]], &m[0].esc[p], &ca);
 			b[u] = get_residual(dc, 1, &res1[class_activity[left_b][ca]], &m[1].esc[p], &cb);
 			up[u] = (uint8_t)cb;
@@ -499,13 +622,23 @@ static void get_plane(struct decoder *dc, struct stream_models m[2], int p, int3
 			left_b = cb;
 		}
 	}
-	if (row < h) {
-		unsigned left = 0, c;
-		for (uint32_t u = 0; u < w; u++) {
-			v[row * w + u] = get_residual(dc, 0, &res0[class_activity[left][up[u]]], &m[0].esc[p], &c);
-			left = c;
+	if (row < sv.b) {
+		unsigned left = 0, cl;
+		for (uint32_t u = su.a; u < su.b; u++) {
+			v[row * w + u] = get_residual(dc, 0, &res0[class_activity[left][up[u]]], &m[0].esc[p], &cl);
+			left = cl;
 		}
 	}
+	if (full)
+		return;
+	/* The tails (put_plane()): rare and short, so contexts are recomputed from the values. */
+	unsigned cls;
+	if (c->tail_row)
+		for (uint32_t u = su.b; u < w; u++)
+			v[u] = get_residual(dc, 0, &res0[plane_context(v, w, u, 0)], &m[0].esc[p], &cls);
+	if (c->tail_col)
+		for (uint32_t r = sv.b; r < h; r++)
+			v[r * w] = get_residual(dc, 0, &res0[plane_context(v, w, 0, r)], &m[0].esc[p], &cls);
 }
 
 static inline int8_t get_label(struct rans_dec *d, struct rc_cdf16 *m)
@@ -516,15 +649,17 @@ static inline int8_t get_label(struct rans_dec *d, struct rc_cdf16 *m)
 
 /* The labels in the encoder's order and contexts (label_context()), with the left and
  * just-decoded upper neighbours kept in registers rather than read back from memory. */
-static void get_labels(struct decoder *dc, struct stream_models m[2], int8_t *labels, uint32_t L)
+static void get_labels(struct decoder *dc, struct stream_models m[2], int8_t *labels, uint32_t L, struct span si,
+                       struct span sj)
 {
-	uint32_t j = 0;
-	for (; j < L; j += 2) {
+	if (si.a > 0 || si.b < L || sj.a > 0 || sj.b < L)
+		memset(labels, 0, (size_t)L * L);
+	for (uint32_t j = sj.a; j < sj.b; j += 2) {
 		int8_t *a = labels + j * L, *b = a + L;
 		const int8_t *up = j ? a - L : NULL;
 		unsigned left_a = 0, left_b = 0;
-		bool pair = j + 1 < L;
-		for (uint32_t i = 0; i < L; i++) {
+		bool pair = j + 1 < sj.b;
+		for (uint32_t i = si.a; i < si.b; i++) {
 			unsigned ca = left_a + (up && up[i] != 0);
 			int8_t la = get_label(&dc->d[0], &m[0].labels[ca]);
 			a[i] = la;
@@ -538,9 +673,14 @@ static void get_labels(struct decoder *dc, struct stream_models m[2], int8_t *la
 	}
 }
 
-int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const uint8_t *buf, size_t size,
-                                int8_t *labels, int32_t *residuals)
+int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const struct relief_window *win,
+                                const uint8_t *buf, size_t size, int8_t *labels, int32_t *residuals)
 {
+	struct relief_window full;
+	if (!win) {
+		relief_window_full(g, &full);
+		win = &full;
+	}
 	if (size < 12)
 		return -EBADMSG;
 	uint64_t n[3];
@@ -559,14 +699,17 @@ int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, co
 	stream_models_init(&m[0]);
 	stream_models_init(&m[1]);
 	if (root) {
-		get_plane(&dc, m, 0, residuals, g->E, g->E);
+		struct cover rc = root_cover(win, g->E);
+		get_plane(&dc, m, 0, residuals, g->E, g->E, &rc);
 	} else {
-		get_labels(&dc, m, labels, g->L);
+		struct cover lc = cover_of(win, 0, 0, g->L, g->L);
+		get_labels(&dc, m, labels, g->L, lc.su, lc.sv);
 		struct plane pl[3];
 		planes(g, pl);
 		int32_t *v = residuals;
 		for (int p = 0; p < 3; p++) {
-			get_plane(&dc, m, p, v, pl[p].w, pl[p].h);
+			struct cover c = cover_of(win, pl[p].x0, pl[p].y0, pl[p].w, pl[p].h);
+			get_plane(&dc, m, p, v, pl[p].w, pl[p].h, &c);
 			v += (size_t)pl[p].w * pl[p].h;
 		}
 	}

@@ -71,11 +71,27 @@ int relief_root_reconstruct(const struct relief_patch_geom *g, const int32_t *re
 int relief_mask_encode(uint32_t P, const uint8_t *mask, uint8_t **out, size_t *out_size);
 int relief_mask_decode(uint32_t P, const uint8_t *buf, size_t size, uint8_t *mask);
 
+/* The samples a patch stream codes: local x in [x0, x1) and y in [y0, y1), inside
+ * [-1, P+1); with ring_west also the whole column x = -1, with ring_north the whole row
+ * y = -1. Labels and residuals of the samples outside are 0 and take no symbol: the stream
+ * of a patch at the raster's east or south edge skips the padding beyond the valid extent
+ * (format version 3, docs/format.md; relief_patch_window() in layout.h). The root patch
+ * codes its values in raster order, so its window is a plain rectangle (the ring flags do
+ * not apply). */
+struct relief_window {
+	int32_t x0, y0, x1, y1;
+	bool ring_west, ring_north;
+};
+
+/* The whole patch, ring included. */
+void relief_window_full(const struct relief_patch_geom *g, struct relief_window *w);
+
 /* Entropy stage. A patch stream codes its labels (none for the root) then its residual
- * planes, with adaptive binary models whose contexts come only from symbols of the same
- * stream (so entropy decoding needs no parent data). */
-int relief_patch_encode(const struct relief_patch_geom *g, bool root, const int8_t *labels,
-                        const int32_t *residuals, uint8_t **out, size_t *out_size);
-/* -EBADMSG on a corrupt or truncated stream. */
-int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const uint8_t *buf, size_t size,
-                                int8_t *labels, int32_t *residuals);
+ * planes, with adaptive models whose contexts come only from symbols of the same stream
+ * (so entropy decoding needs no parent data). win NULL = the whole patch. Encoding returns
+ * -EINVAL when a label or residual outside the window is not 0. */
+int relief_patch_encode(const struct relief_patch_geom *g, bool root, const struct relief_window *win,
+                        const int8_t *labels, const int32_t *residuals, uint8_t **out, size_t *out_size);
+/* -EBADMSG on a corrupt or truncated stream; values outside the window are set to 0. */
+int relief_patch_decode_symbols(const struct relief_patch_geom *g, bool root, const struct relief_window *win,
+                                const uint8_t *buf, size_t size, int8_t *labels, int32_t *residuals);

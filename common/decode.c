@@ -44,7 +44,9 @@ int relief_decoder_symbols(struct relief_decoder *d, uint32_t id)
 	}
 	if (ret < 0)
 		return ret;
-	return relief_patch_decode_symbols(g, id == 0, d->stream, size, d->labels, d->residuals);
+	struct relief_window win;
+	relief_file_window(d->file, id, &win);
+	return relief_patch_decode_symbols(g, id == 0, &win, d->stream, size, d->labels, d->residuals);
 }
 
 int relief_decoder_patch(struct relief_decoder *d, uint32_t id, const int32_t *parent, int32_t *block)

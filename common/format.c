@@ -113,9 +113,9 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "not a .relief file (bad magic)");
 	struct relief_header r = { 0 };
 	r.version = le_get_u32(b + H_VERSION);
-	if (r.version != RELIEF_FORMAT_VERSION)
-		return bad(err, err_size, "format version %u is not supported (this build reads %u)", r.version,
-		           RELIEF_FORMAT_VERSION);
+	if (r.version < RELIEF_FORMAT_VERSION_MIN || r.version > RELIEF_FORMAT_VERSION)
+		return bad(err, err_size, "format version %u is not supported (this build reads %u to %u)", r.version,
+		           RELIEF_FORMAT_VERSION_MIN, RELIEF_FORMAT_VERSION);
 	if (le_get_u32(b + H_HEADER_SIZE) != RELIEF_HEADER_SIZE)
 		return bad(err, err_size, "header size %u, expected %u", le_get_u32(b + H_HEADER_SIZE), RELIEF_HEADER_SIZE);
 	uint32_t crc = relief_crc32c(0, b, H_CRC);
@@ -463,6 +463,16 @@ void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *e
 	const double unit = f->hdr.tolerance / 64.0;
 	for (size_t i = 0; i < n; i++)
 		eps[i] = relief_block_error_decode(p[i], unit);
+}
+
+void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_window *win)
+{
+	uint32_t l, px, py;
+	if (f->hdr.version < 3 || !relief_patch_coords(&f->layout, id, &l, &px, &py)) {
+		relief_window_full(&f->layout.geom, win);
+		return;
+	}
+	relief_patch_window(&f->layout, f->hdr.width, f->hdr.height, l, px, py, win);
 }
 
 int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask)

@@ -22,7 +22,10 @@
 #include "layout.h"
 
 #define RELIEF_MAGIC "RELIEF\x1a\n"
-#define RELIEF_FORMAT_VERSION 2u /* 2: residual contexts from classes (docs/codec.md) */
+/* 2: residual contexts from classes (docs/codec.md); 3: streams skip the padding beyond
+ * the valid extent (relief_patch_window()). Version 2 files are still read. */
+#define RELIEF_FORMAT_VERSION 3u
+#define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 #define RELIEF_INDEX_RECORD_SIZE 40u
 
@@ -101,5 +104,8 @@ void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_
 int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size);
 /* Decoded block errors (upper bounds, metres; +infinity means "never simplify"). */
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps);
+/* The samples patch id's stream codes: relief_patch_window() from version 3 on, the whole
+ * patch in version 2. */
+void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_window *win);
 /* 1 byte per interior sample (P x P), 1 = valid. -EBADMSG for a corrupt mask. */
 int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask);

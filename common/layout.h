@@ -55,6 +55,20 @@ static inline uint32_t relief_patch_id(uint32_t l, uint32_t px, uint32_t py)
 /* Inverse of relief_patch_id; false for an id outside the tree. */
 bool relief_patch_coords(const struct relief_layout *lay, uint32_t id, uint32_t *l, uint32_t *px, uint32_t *py);
 
+/* The samples patch (l, px, py)'s stream codes (format version 3) for a raster whose valid
+ * extent is width x height finest samples. Skipped: the patch's samples inside the level
+ * grid (global 0..S_l - 1) from the first even column (row) at or beyond the extent's
+ * level-l width (height), ceil(width / 2^(L-1-l)). The packer gives them label 0 and
+ * residual 0 (no-data takes the prediction), and the patch-local prediction equals that
+ * global one there because every refined value it uses is beyond the extent, where labels
+ * are 0 (hence the even column). The grid's outer ring (global -1 and S_l) stays coded: its
+ * values are clamped copies, not the patch-local prediction (ring_west, ring_north, and a
+ * full window for the last patch column and row). The root (l = 0) codes exactly the
+ * samples inside the extent: its prediction is causal (MED in raster order), and the packer
+ * gives every sample outside, its ring included, the prediction. */
+void relief_patch_window(const struct relief_layout *lay, uint32_t width, uint32_t height, uint32_t l, uint32_t px,
+                         uint32_t py, struct relief_window *win);
+
 /* A level's quantised values with a one-sample ring: (size + 2)^2 values, sample (x, y)
  * for x, y in [-1, size] at [(y + 1)(size + 2) + x + 1]. */
 struct relief_qgrid {

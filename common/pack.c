@@ -239,7 +239,9 @@ static int encode_patch(void *ctx, size_t id)
 			goto out;
 	}
 	size_t size;
-	if ((ret = relief_patch_encode(geom, l == 0, labels, residuals, &p->stream[id], &size)) < 0)
+	struct relief_window win;
+	relief_patch_window(&p->lay, p->dem->width, p->dem->height, l, px, py, &win);
+	if ((ret = relief_patch_encode(geom, l == 0, &win, labels, residuals, &p->stream[id], &size)) < 0)
 		goto out;
 	if (size > UINT32_MAX) {
 		ret = -EOVERFLOW;

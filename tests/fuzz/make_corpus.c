@@ -76,6 +76,28 @@ static void pack_file(const char *dir, const char *name, struct relief_dem *dem,
 		}
 		free(sel);
 	}
+	/* The root and the first other patch whose window skips samples, with their windows
+	 * (fuzz_patch bit 5). */
+	for (uint32_t id = 0, found = 0; id < f->hdr.patch_count && patch == 65 && found < 2; id++) {
+		struct relief_window w;
+		relief_file_window(f, id, &w);
+		size_t n;
+		if ((w.x1 > 65 && w.y1 > 65) || relief_file_read_stream(f, id, d, &n) < 0)
+			continue;
+		found++;
+		uint32_t l, px, py;
+		relief_patch_coords(&f->layout, id, &l, &px, &py);
+		uint8_t *sel = malloc(n + 4);
+		sel[0] = (uint8_t)(32 | (id == 0) | ((px & 1) << 1) | ((py & 1) << 2));
+		sel[1] = (uint8_t)w.x1;
+		sel[2] = (uint8_t)w.y1;
+		sel[3] = (uint8_t)(w.ring_west | w.ring_north << 1);
+		memcpy(sel + 4, d, n);
+		char base[128];
+		snprintf(base, sizeof(base), "%s-window%u", name, id);
+		variants(dir, "patch", base, sel, n + 4);
+		free(sel);
+	}
 	free(d);
 	relief_file_close(f);
 	free(img);
@@ -98,6 +120,16 @@ int main(int argc, char **argv)
 	}
 	pack_file(out, "lux65", &dem, 65, 1.0);
 	pack_file(out, "lux129", &dem, 129, 4.0);
+	relief_dem_finish(&dem);
+	/* A Mont Blanc crop in a grid three levels deep: streams with windows (version 3). */
+	struct dem_import_options ro = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
+	                                 .raw_type = "float32" };
+	snprintf(path, sizeof(path), "%s/alps-crop-140x100.f32", argv[1]);
+	if (dem_import(path, &ro, &dem, err, sizeof(err)) < 0) {
+		fprintf(stderr, "%s\n", err);
+		return 1;
+	}
+	pack_file(out, "crop65", &dem, 65, 4.0);
 	relief_dem_finish(&dem);
 	/* A tiny flat sea with one no-data corner. */
 	float h[9] = { 0 };

@@ -5,6 +5,7 @@
 #include "../test_util.h"
 #include "codec.h"
 #include "crc32c.h"
+#include "layout.h"
 #include "rangecoder.h"
 
 static uint32_t rng_state = 12345;
@@ -119,19 +120,19 @@ static void roundtrip(uint32_t P, uint32_t k, unsigned quadrant)
 	assert_int_equal(relief_patch_analyse(&g, k, quadrant, parent, child, labels, res), 0);
 	uint8_t *buf;
 	size_t size;
-	assert_int_equal(relief_patch_encode(&g, false, labels, res, &buf, &size), 0);
-	assert_int_equal(relief_patch_decode_symbols(&g, false, buf, size, labels2, res2), 0);
+	assert_int_equal(relief_patch_encode(&g, false, NULL, labels, res, &buf, &size), 0);
+	assert_int_equal(relief_patch_decode_symbols(&g, false, NULL, buf, size, labels2, res2), 0);
 	assert_memory_equal(labels, labels2, g.n_labels);
 	assert_memory_equal(res, res2, sizeof(int32_t) * g.n_residuals);
 	assert_int_equal(relief_patch_reconstruct(&g, k, quadrant, parent, labels2, res2, out), 0);
 	assert_memory_equal(out, child, sizeof(int32_t) * EE);
 	/* A truncated stream is reported. */
-	assert_int_equal(relief_patch_decode_symbols(&g, false, buf, size / 2, labels2, res2), -EBADMSG);
+	assert_int_equal(relief_patch_decode_symbols(&g, false, NULL, buf, size / 2, labels2, res2), -EBADMSG);
 	free(buf);
 	/* Root: MED residuals. */
 	relief_root_analyse(&g, child, res);
-	assert_int_equal(relief_patch_encode(&g, true, NULL, res, &buf, &size), 0);
-	assert_int_equal(relief_patch_decode_symbols(&g, true, buf, size, NULL, res2), 0);
+	assert_int_equal(relief_patch_encode(&g, true, NULL, NULL, res, &buf, &size), 0);
+	assert_int_equal(relief_patch_decode_symbols(&g, true, NULL, buf, size, NULL, res2), 0);
 	assert_int_equal(relief_root_reconstruct(&g, res2, out), 0);
 	assert_memory_equal(out, child, sizeof(int32_t) * EE);
 	free(buf);
@@ -150,6 +151,126 @@ static void test_patch_roundtrip(void **state)
 /* The largest patch the format allows: the decoder's per-row state must hold the root's
  * plane, P + 2 samples wide (a buffer sized for the child planes overflowed here). */
 static void test_patch_roundtrip_largest(void **state) { roundtrip(RELIEF_PATCH_MAX, 2, 1); }
+
+/* Whether local sample (x, y) is coded under a window, restated from codec.h. */
+static bool window_codes(const struct relief_window *w, int x, int y)
+{
+	return (x >= w->x0 && x < w->x1 && y >= w->y0 && y < w->y1) || (w->ring_west && x == -1) ||
+	       (w->ring_north && y == -1);
+}
+
+/* A stream that skips what lies outside a window decodes to the same labels and residuals
+ * (0 outside), is shorter than the whole patch's, and the encoder refuses a window whose
+ * outside is not 0. Windows with and without the ring tails, odd and even ends. */
+static void test_window_roundtrip(void **state)
+{
+	struct relief_patch_geom g;
+	assert_int_equal(relief_patch_geom_init(&g, 65), 0);
+	const struct relief_window wins[] = {
+		{ -1, -1, 12, 36, true, true }, { -1, -1, 66, 8, false, true }, { -1, -1, 2, 66, true, false },
+		{ -1, -1, 7, 9, false, false }, { -1, -1, 66, 66, true, true },
+	};
+	const uint32_t odd = (g.P + 3) / 2, L = g.L;
+	const struct {
+		uint32_t w, h;
+		int x0, y0;
+	} pl[3] = { { odd, L, -1, 0 }, { L, odd, 0, -1 }, { odd, odd, -1, -1 } };
+	int32_t *res = malloc(sizeof(int32_t) * g.n_residuals), *res2 = malloc(sizeof(int32_t) * g.n_residuals);
+	int8_t *labels = malloc(g.n_labels), *labels2 = malloc(g.n_labels);
+	for (size_t k = 0; k < sizeof(wins) / sizeof(wins[0]); k++) {
+		const struct relief_window *w = &wins[k];
+		for (uint32_t j = 0; j < L; j++)
+			for (uint32_t i = 0; i < L; i++)
+				labels[j * L + i] = window_codes(w, 2 * (int)i, 2 * (int)j) ? (int8_t)(rng() % 3) - 1 : 0;
+		size_t n = 0;
+		for (int p = 0; p < 3; p++)
+			for (uint32_t v = 0; v < pl[p].h; v++)
+				for (uint32_t u = 0; u < pl[p].w; u++, n++)
+					res[n] = window_codes(w, pl[p].x0 + 2 * (int)u, pl[p].y0 + 2 * (int)v)
+					                 ? (int32_t)(rng() % 41) - 20
+					                 : 0;
+		uint8_t *buf, *whole;
+		size_t size, whole_size;
+		assert_int_equal(relief_patch_encode(&g, false, w, labels, res, &buf, &size), 0);
+		assert_int_equal(relief_patch_encode(&g, false, NULL, labels, res, &whole, &whole_size), 0);
+		memset(labels2, 0x55, g.n_labels);
+		memset(res2, 0x55, sizeof(int32_t) * g.n_residuals);
+		assert_int_equal(relief_patch_decode_symbols(&g, false, w, buf, size, labels2, res2), 0);
+		assert_memory_equal(labels, labels2, g.n_labels);
+		assert_memory_equal(res, res2, sizeof(int32_t) * g.n_residuals);
+		if (k + 1 < sizeof(wins) / sizeof(wins[0]))
+			assert_true(size < whole_size);
+		free(buf);
+		free(whole);
+		/* A non-zero value outside: the last residual of the centre plane, (P, P), is
+		 * outside every window above but the last. */
+		if (k + 1 < sizeof(wins) / sizeof(wins[0])) {
+			res[g.n_residuals - 1] = 3;
+			assert_int_equal(relief_patch_encode(&g, false, w, labels, res, &buf, &size), -EINVAL);
+		}
+	}
+	/* The root: a plain rectangle of its raster-order values. */
+	const struct relief_window rw = { 0, 0, 40, 50, false, false };
+	const uint32_t E = g.E;
+	int32_t *rv = calloc((size_t)E * E, sizeof(int32_t)), *rv2 = malloc(sizeof(int32_t) * E * E);
+	for (uint32_t y = 0; y < E; y++)
+		for (uint32_t x = 0; x < E; x++)
+			if ((int)x - 1 >= rw.x0 && (int)x - 1 < rw.x1 && (int)y - 1 >= rw.y0 && (int)y - 1 < rw.y1)
+				rv[y * E + x] = (int32_t)(rng() % 41) - 20;
+	uint8_t *buf, *whole;
+	size_t size, whole_size;
+	assert_int_equal(relief_patch_encode(&g, true, &rw, NULL, rv, &buf, &size), 0);
+	assert_int_equal(relief_patch_encode(&g, true, NULL, NULL, rv, &whole, &whole_size), 0);
+	assert_true(size < whole_size);
+	memset(rv2, 0x55, sizeof(int32_t) * E * E);
+	assert_int_equal(relief_patch_decode_symbols(&g, true, &rw, buf, size, NULL, rv2), 0);
+	assert_memory_equal(rv, rv2, sizeof(int32_t) * E * E);
+	free(buf);
+	free(whole);
+	rv[0] = 1; /* the ring corner (-1, -1) is outside */
+	assert_int_equal(relief_patch_encode(&g, true, &rw, NULL, rv, &buf, &size), -EINVAL);
+	free(rv);
+	free(rv2);
+	free(res);
+	free(res2);
+	free(labels);
+	free(labels2);
+}
+
+/* The windows of Mont Blanc's 647 x 647 raster in a 1025 x 1025 grid (P = 129, 4 levels):
+ * the padding from the first even column at or beyond the extent is skipped inside the
+ * grid, the grid's ring never. */
+static void test_patch_windows(void **state)
+{
+	struct relief_layout lay;
+	assert_int_equal(relief_layout_init(&lay, 129, 4, 2, 1.0), 0);
+	struct relief_window w;
+	relief_patch_window(&lay, 647, 647, 3, 5, 0, &w); /* level 3: columns 640..768, 647 valid */
+	assert_int_equal(w.x0, -1);
+	assert_int_equal(w.x1, 8);   /* 648 - 640 */
+	assert_int_equal(w.y1, 130); /* rows 0..128: all inside */
+	assert_true(!w.ring_west && w.ring_north);
+	relief_patch_window(&lay, 647, 647, 3, 4, 5, &w);
+	assert_int_equal(w.x1, 130);
+	assert_int_equal(w.y1, 8);
+	relief_patch_window(&lay, 647, 647, 2, 2, 2, &w); /* level 2: 324 samples, columns from 256 */
+	assert_int_equal(w.x1, 68);
+	assert_int_equal(w.y1, 68);
+	relief_patch_window(&lay, 647, 647, 1, 1, 0, &w); /* the last column holds the grid's ring */
+	assert_int_equal(w.x1, 130);
+	relief_patch_window(&lay, 647, 647, 0, 0, 0, &w); /* the root: 81 samples (647 / 8), no ring */
+	assert_int_equal(w.x0, 0);
+	assert_int_equal(w.y0, 0);
+	assert_int_equal(w.x1, 81);
+	assert_int_equal(w.y1, 81);
+	assert_true(!w.ring_west && !w.ring_north);
+	relief_patch_window(&lay, 647, 647, 2, 0, 0, &w);
+	assert_int_equal(w.x1, 130);
+	assert_true(w.ring_west && w.ring_north);
+	relief_patch_window(&lay, 645, 1025, 3, 5, 0, &w); /* 645 valid: the first even beyond is 646 */
+	assert_int_equal(w.x1, 6);
+	assert_int_equal(w.y1, 130);
+}
 
 static void test_analyse_rejects_foreign_child(void **state)
 {
@@ -204,7 +325,7 @@ static void test_random_streams(void **state)
 		size_t n = rng() % sizeof(buf);
 		for (size_t i = 0; i < n; i++)
 			buf[i] = (uint8_t)rng();
-		int r = relief_patch_decode_symbols(&g, t & 1, buf, n, labels, res);
+		int r = relief_patch_decode_symbols(&g, t & 1, NULL, buf, n, labels, res);
 		assert_true(r == 0 || r == -EBADMSG);
 	}
 	free(labels);
@@ -219,6 +340,8 @@ int main(void)
 		cmocka_unit_test(test_geom),
 		cmocka_unit_test(test_patch_roundtrip),
 		cmocka_unit_test(test_patch_roundtrip_largest),
+		cmocka_unit_test(test_window_roundtrip),
+		cmocka_unit_test(test_patch_windows),
 		cmocka_unit_test(test_analyse_rejects_foreign_child),
 		cmocka_unit_test(test_reconstruct_refuses_out_of_range),
 		cmocka_unit_test(test_random_streams),

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdbool.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "../data_load.h"
@@ -253,6 +254,57 @@ static void test_open_from_disk(void **state)
 	assert_int_equal(test_count_fds(), fds);
 }
 
+/* Format version 2 is still read. tests/data/alps-crop-140x100-v2.relief was written by
+ * the last version-2 packer (commit "codec: branch-free residual sign ...") from the
+ * Mont Blanc crop next to it (`relief pack alps-crop-140x100.f32 --raw-size 140x100
+ * --raw-type float32 --spacing 92.7 --tolerance 1 --patch 65`). Version 3 skips padding
+ * symbols but quantises alike, so both must decode to the same heights and masks at every
+ * level, and the version-3 file must be smaller (its streams at the east and south edges
+ * skip the padding beyond 140 x 100 in the 257 x 257 grid). */
+static void test_version2_still_read(void **state)
+{
+	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
+	                                .raw_type = "float32" };
+	struct relief_dem dem;
+	char err[512] = "";
+	if (dem_import(test_data("alps-crop-140x100.f32"), &o, &dem, err, sizeof(err)) < 0)
+		fail_msg("import: %s", err);
+	struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0 };
+	uint8_t *v3img;
+	size_t v3size;
+	assert_int_equal(relief_pack_memory(&dem, &po, &v3img, &v3size, NULL), 0);
+	relief_dem_finish(&dem);
+	struct relief_file *v2, *v3;
+	assert_int_equal(relief_file_open(test_data("alps-crop-140x100-v2.relief"), &v2, err, sizeof(err)), 0);
+	assert_int_equal(relief_file_open_memory(v3img, v3size, &v3, err, sizeof(err)), 0);
+	assert_int_equal(v2->hdr.version, 2);
+	assert_int_equal(v3->hdr.version, RELIEF_FORMAT_VERSION);
+	assert_int_equal(v2->hdr.levels, 3);
+	assert_int_equal(v3->hdr.levels, 3);
+	struct stat st;
+	assert_int_equal(stat(test_data("alps-crop-140x100-v2.relief"), &st), 0);
+	print_message("version 2: %lld bytes, version 3: %zu bytes\n", (long long)st.st_size, v3size);
+	assert_true(v3size < (size_t)st.st_size);
+	for (uint32_t l = 0; l < 3; l++) {
+		uint32_t w, h;
+		relief_level_extent(&v3->hdr, l, &w, &h);
+		size_t n = (size_t)w * h;
+		float *h2 = malloc(sizeof(float) * n), *h3 = malloc(sizeof(float) * n);
+		uint8_t *m2 = malloc(n), *m3 = malloc(n);
+		assert_int_equal(relief_decode_level(v2, l, 1, h2, m2), 0);
+		assert_int_equal(relief_decode_level(v3, l, 1, h3, m3), 0);
+		assert_memory_equal(h2, h3, sizeof(float) * n);
+		assert_memory_equal(m2, m3, n);
+		free(h2);
+		free(h3);
+		free(m2);
+		free(m3);
+	}
+	relief_file_close(v2);
+	relief_file_close(v3);
+	free(v3img);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -262,6 +314,7 @@ int main(void)
 		cmocka_unit_test(test_hostile_header_fields),
 		cmocka_unit_test(test_hostile_records),
 		cmocka_unit_test(test_open_from_disk),
+		cmocka_unit_test(test_version2_still_read),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);
 }
