@@ -109,22 +109,16 @@ static bool covered(const struct cover *c, uint32_t u, uint32_t r)
 	       (c->tail_row && r == 0 && u >= c->su.b) || (c->tail_col && u == 0 && r >= c->sv.b);
 }
 
-/* True when every value of the w x h array outside the cover is 0. */
-static bool outside_zero32(const int32_t *v, uint32_t w, uint32_t h, const struct cover *c)
+/* True when every value (elem bytes each) of the w x h array outside the cover is 0. */
+static bool outside_zero(const void *v, size_t elem, uint32_t w, uint32_t h, const struct cover *c)
 {
+	const uint8_t *b = v;
 	for (uint32_t r = 0; r < h; r++)
 		for (uint32_t u = 0; u < w; u++)
-			if (v[(size_t)r * w + u] && !covered(c, u, r))
-				return false;
-	return true;
-}
-
-static bool outside_zero8(const int8_t *v, uint32_t w, uint32_t h, const struct cover *c)
-{
-	for (uint32_t r = 0; r < h; r++)
-		for (uint32_t u = 0; u < w; u++)
-			if (v[(size_t)r * w + u] && !covered(c, u, r))
-				return false;
+			if (!covered(c, u, r))
+				for (size_t k = 0; k < elem; k++)
+					if (b[((size_t)r * w + u) * elem + k])
+						return false;
 	return true;
 }
 
@@ -488,13 +482,13 @@ int relief_patch_encode(const struct relief_patch_geom *g, bool root, const stru
 	bool outside_ok = true;
 	if (root) {
 		struct cover rc = root_cover(win, g->E);
-		outside_ok = outside_zero32(residuals, g->E, g->E, &rc);
+		outside_ok = outside_zero(residuals, sizeof(int32_t), g->E, g->E, &rc);
 		put_plane(e, 0, residuals, g->E, g->E, &rc);
 	} else {
 		const uint32_t L = g->L;
 		struct cover lc = cover_of(win, 0, 0, L, L);
 		struct span si = lc.su, sj = lc.sv;
-		outside_ok = outside_zero8(labels, L, L, &lc);
+		outside_ok = outside_zero(labels, 1, L, L, &lc);
 		uint32_t j = sj.a;
 		for (; j + 1 < sj.b; j += 2)
 			for (uint32_t i = si.a; i < si.b; i++) {
@@ -512,7 +506,7 @@ int relief_patch_encode(const struct relief_patch_geom *g, bool root, const stru
 		const int32_t *v = residuals;
 		for (int p = 0; p < 3; p++) {
 			struct cover c = cover_of(win, pl[p].x0, pl[p].y0, pl[p].w, pl[p].h);
-			outside_ok &= outside_zero32(v, pl[p].w, pl[p].h, &c);
+			outside_ok &= outside_zero(v, sizeof(int32_t), pl[p].w, pl[p].h, &c);
 			put_plane(e, p, v, pl[p].w, pl[p].h, &c);
 			v += (size_t)pl[p].w * pl[p].h;
 		}
