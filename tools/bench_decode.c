@@ -137,13 +137,19 @@ int bench_decode(int argc, char **argv)
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 	if (json) {
-		printf("{\"file\":\"%s\",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
+		printf("{\"file\":");
+		cli_json_string(stdout, base);
+		printf(",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
 		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
-		       "\"workers\":%u,\"runs\":%u,\"device\":\"%s\"}\n",
-		       base, patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
+		       "\"workers\":%u,\"runs\":%u,\"device\":",
+		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, w * 1e3,
-		       (unsigned long long)st.batches, workers, runs, vk->props.deviceName);
+		       (unsigned long long)st.batches, workers, runs);
+		cli_json_string(stdout, vk->props.deviceName);
+		printf(",\"cpu\":");
+		cli_json_string(stdout, bench_cpu_name());
+		printf("}\n");
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
 		       "medians\n", base, patches, P, vk->props.deviceName, relief_vk_device_type_name(vk->props.deviceType),

@@ -399,17 +399,21 @@ int bench_lod(int argc, char **argv)
 		res[i].ms_p95 = m[(size_t)ceil(0.95 * count) - 1]; /* sorted by bench_median */
 		res[i].select_ms = bench_median(sel + at, count);
 		res[i].lod_ms = bench_median(lod + at, count);
-		if (json)
+		if (json) {
 			printf("{\"method\":\"%s\",\"tau_px\":%g,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,"
 			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,"
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%zu,"
-			       "\"runs\":%u,\"width\":%u,\"height\":%u,\"device\":\"%s\"}\n",
+			       "\"runs\":%u,\"width\":%u,\"height\":%u,\"device\":",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
 			       res[i].camera_popping, (unsigned long long)res[i].pixels, (unsigned long long)res[i].excluded,
-			       per_run, runs, w, h, r.vk->props.deviceName);
-		else
+			       per_run, runs, w, h);
+			cli_json_string(stdout, r.vk->props.deviceName);
+			printf(",\"cpu\":");
+			cli_json_string(stdout, bench_cpu_name());
+			printf("}\n");
+		} else
 			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9.2f %10.3f %10.5f %10.4f %9llu\n",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,

@@ -102,3 +102,18 @@ int cli_option_error(const char *cmd, int c, char **argv)
 		fprintf(stderr, "relief %s: unknown option '%s' (see 'relief %s --help')\n", cmd, argv[optind - 1], cmd);
 	return EXIT_USAGE;
 }
+
+void cli_json_string(FILE *f, const char *s)
+{
+	fputc('"', f);
+	for (; *s; s++) {
+		unsigned char c = (unsigned char)*s;
+		if (c == '"' || c == '\\')
+			fprintf(f, "\\%c", c);
+		else if (c < 0x20)
+			fprintf(f, "\\u%04x", c);
+		else
+			fputc(c, f);
+	}
+	fputc('"', f);
+}

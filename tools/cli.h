@@ -5,6 +5,7 @@
 
 #include <stdbool.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "log.h"
 
@@ -28,6 +29,8 @@ bool cli_parse_vec3(const char *cmd, const char *opt, const char *s, double out[
 /* The usage error for getopt_long's ':' (missing value) or '?' (unknown option) return,
  * run with opterr = 0 and an optstring starting with ':'. Prints it and returns EXIT_USAGE. */
 int cli_option_error(const char *cmd, int c, char **argv);
+/* Writes s as a JSON string, quotes included (", \\ and control characters escaped). */
+void cli_json_string(FILE *f, const char *s);
 /* Creates the parent directory of `path` if needed (one level, like out/). */
 int cli_make_parent_dir(const char *path);
 

@@ -7,21 +7,6 @@
 #include "cli.h"
 #include "format.h"
 
-static void json_string(FILE *f, const char *s)
-{
-	fputc('"', f);
-	for (; *s; s++) {
-		unsigned char c = (unsigned char)*s;
-		if (c == '"' || c == '\\')
-			fprintf(f, "\\%c", c);
-		else if (c < 0x20)
-			fprintf(f, "\\u%04x", c);
-		else
-			fputc(c, f);
-	}
-	fputc('"', f);
-}
-
 int cmd_info(int argc, char **argv)
 {
 	static const struct option opts[] = {
@@ -72,7 +57,7 @@ int cmd_info(int argc, char **argv)
 	double bps = 8.0 * h->file_size / h->valid_samples;
 	if (json) {
 		printf("{\"file\":");
-		json_string(stdout, path);
+		cli_json_string(stdout, path);
 		printf(",\"version\":%u,\"bytes\":%llu,\"width\":%u,\"height\":%u,\"grid\":%u,\"patch\":%u,"
 		       "\"ratio\":%u,\"tolerance_m\":%.17g,\"spacing_m\":[%.17g,%.17g],"
 		       "\"extent\":{\"x\":[%.17g,%.17g],\"y\":[%.17g,%.17g]},\"height_m\":[%.17g,%.17g],"
@@ -81,7 +66,7 @@ int cmd_info(int argc, char **argv)
 		       h->ratio, h->tolerance, h->spacing_x, h->spacing_y, x0, x1, y0, y1, h->height_min,
 		       h->height_max, (unsigned long long)h->valid_samples, bps,
 		       h->source_units == RELIEF_UNITS_FEET ? "ft" : "m");
-		json_string(stdout, f->crs);
+		cli_json_string(stdout, f->crs);
 		printf(",\"levels\":[");
 		for (uint32_t l = 0; l < h->levels; l++)
 			printf("%s{\"level\":%u,\"delta_m\":%.17g,\"patches\":%u,\"nonempty\":%u,\"bytes\":%llu}",

@@ -103,6 +103,7 @@ check bench-codec 0 "$relief" bench codec "$data/luxembourg_elev.tif" --runs 1 -
 n=$(grep -c '"method":' <<<"$LAST_OUT")
 [ "$n" -eq 3 ] || { echo "FAIL bench codec records: $n"; fails=$((fails + 1)); }
 expect_text bench-codec-fields '"file":"luxembourg_elev.tif","method":"relief","tolerance_m":1,"bytes":'
+expect_text bench-codec-cpu '"valid_samples":4608,"cpu":"'
 check bench-unknown-mode 2 "$relief" bench frobnicate
 # the daemon builds its GPU cache from the configured budget
 printf '[gpu]\nbudget_mib = 16\n' > "$tmp/reliefd.conf"
@@ -113,6 +114,8 @@ expect_text reliefd-terrain-missing-named "none.relief"
 vkcheck bench-decode 0 "$relief" bench decode "$tmp/lux.relief" --runs 1 --json
 expect_text bench-decode-fields '"file":"lux.relief","patches":'
 expect_text bench-decode-ratio '"ratio_gpu_over_cpu":'
+expect_text bench-decode-device '"device":"'
+expect_text bench-decode-cpu '","cpu":"'
 # relief snap: a real frame, its depth file, and refused cameras
 vkcheck snap 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/snap.png" --depth "$tmp/snap.f32" --wire
 expect_text snap-summary "patches in"
@@ -136,6 +139,7 @@ expect_text bench-lod-error-fields '"max_err_px":'
 expect_text bench-lod-popping '"popping_px":'
 expect_text bench-lod-camera-popping '"camera_popping_px":'
 expect_text bench-lod-runs '"frames":4,"runs":2,'
+expect_text bench-lod-cpu '","cpu":"'
 vkcheck bench-lod-zero-runs 2 "$relief" bench lod "$tmp/ps.relief" --runs 0
 expect_text bench-lod-zero-runs-named "--runs"
 echo "cli: $passes passed, $fails failed"
