@@ -7,7 +7,8 @@
  *   entropy   one thread: fetch and entropy-decode only (the CPU share of the GPU path);
  *   gpu       wall time from the first request to the last patch resident in the cache:
  *             the worker thread entropy-decodes while the GPU reconstructs, in batches;
- *             gpu_busy_ms is the GPU's own time from timestamps. */
+ *             gpu_busy_ms is the GPU's own time from timestamps, split into the decode
+ *             pass (with the block error copies) and the normals pass. */
 #include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -100,7 +101,7 @@ int bench_decode(int argc, char **argv)
 	const uint32_t P = f->hdr.patch_size;
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
-	double cpu[16], ent[16], gpu[16], gpu_busy[16], worker[16];
+	double cpu[16], ent[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], worker[16];
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_vk *vk = NULL;
@@ -131,21 +132,25 @@ int bench_decode(int argc, char **argv)
 		if (ret < 0 || (ret = gpu_run(vk, f, workers, &gpu[i], &st)) < 0)
 			goto fail;
 		gpu_busy[i] = st.gpu_ns * 1e-9;
+		gpu_dec[i] = st.gpu_decode_ns * 1e-9;
+		gpu_nrm[i] = st.gpu_normals_ns * 1e-9;
 		worker[i] = st.entropy_ns * 1e-9;
 	}
 	double c = bench_median(cpu, runs), e = bench_median(ent, runs), g = bench_median(gpu, runs);
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
+	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 	if (json) {
 		printf("{\"file\":");
 		cli_json_string(stdout, base);
 		printf(",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
-		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
+		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
+		       "\"gpu_normals_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
 		       "\"workers\":%u,\"runs\":%u,\"device\":",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
-		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, w * 1e3,
-		       (unsigned long long)st.batches, workers, runs);
+		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, gd * 1e3, gn * 1e3,
+		       w * 1e3, (unsigned long long)st.batches, workers, runs);
 		cli_json_string(stdout, vk->props.deviceName);
 		printf(",\"cpu\":");
 		cli_json_string(stdout, bench_cpu_name());
@@ -159,8 +164,9 @@ int bench_decode(int argc, char **argv)
 		       samples / e / 1e6, 100 * e / c);
 		printf("  GPU path (%u worker(s) + GPU) %7.2f ms  %7.2f MSamples/s  %.0f patches/s  ratio GPU/CPU %.2f\n",
 		       workers, g * 1e3, samples / g / 1e6, patches / g, c / g);
-		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches; worker entropy %.2f ms\n", gb * 1e3,
-		       (unsigned long long)st.batches, w * 1e3);
+		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches (decode pass %.2f ms, normals pass "
+		       "%.2f ms); worker entropy %.2f ms\n",
+		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, w * 1e3);
 		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors)\n",
 		       (unsigned long long)st.bytes_per_layer);
 	}

@@ -342,7 +342,7 @@ static int create_batches(struct relief_patch_cache *c)
 	int ret = relief_vk_check(vk, vkCreateCommandPool(vk->device, &pi, NULL, &c->cmd_pool), "vkCreateCommandPool");
 	if (ret < 0)
 		return ret;
-	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 2 * IN_FLIGHT, &c->timer)) < 0)
+	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 3 * IN_FLIGHT, &c->timer)) < 0)
 		return ret;
 	for (int i = 0; i < IN_FLIGHT; i++) {
 		VkCommandBufferAllocateInfo ai = {
@@ -694,11 +694,16 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 		release_slot(c, b->jobs[i].slot);
 	}
 	if (c->timer) {
-		uint64_t t[2];
-		uint32_t first = (uint32_t)(b - c->batches) * 2;
-		if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 2, sizeof(t), t, sizeof(uint64_t),
-		                          VK_QUERY_RESULT_64_BIT) == VK_SUCCESS)
-			c->stats.gpu_ns += (uint64_t)((double)(t[1] - t[0]) * c->vk->props.limits.timestampPeriod);
+		/* Timestamps: batch start, decode pass done, normals pass done. */
+		uint64_t t[3];
+		uint32_t first = (uint32_t)(b - c->batches) * 3;
+		const double period = c->vk->props.limits.timestampPeriod;
+		if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 3, sizeof(t), t, sizeof(uint64_t),
+		                          VK_QUERY_RESULT_64_BIT) == VK_SUCCESS) {
+			c->stats.gpu_ns += (uint64_t)((double)(t[2] - t[0]) * period);
+			c->stats.gpu_decode_ns += (uint64_t)((double)(t[1] - t[0]) * period);
+			c->stats.gpu_normals_ns += (uint64_t)((double)(t[2] - t[1]) * period);
+		}
 	}
 	b->busy = false;
 	b->n = 0;
@@ -716,9 +721,9 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 	};
 	if (ret < 0 || (ret = relief_vk_check(vk, vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer")) < 0)
 		return ret;
-	uint32_t q = (uint32_t)(b - c->batches) * 2;
+	uint32_t q = (uint32_t)(b - c->batches) * 3;
 	if (c->timer) {
-		vkCmdResetQueryPool(cmd, c->timer, q, 2);
+		vkCmdResetQueryPool(cmd, c->timer, q, 3);
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, c->timer, q);
 	}
 	/* Earlier batches (parents, reused layers) and readers of evicted layers come first. */
@@ -774,6 +779,8 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 	vkCmdDispatch(cmd, runs_e, 1, b->n);
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+	if (c->timer) /* after the barrier: the decode pass has finished */
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 1);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
 	vkCmdDispatch(cmd, runs_p, 1, b->n);
 	/* Make the results visible to every later reader, and the flags to the host. */
@@ -782,7 +789,7 @@ static int submit(struct relief_patch_cache *c, struct batch *b)
 	               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT,
 	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
 	if (c->timer)
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 1);
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 2);
 	if ((ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer")) < 0)
 		return ret;
 	if ((ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &b->fence), "vkResetFences")) < 0)

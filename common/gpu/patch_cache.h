@@ -60,6 +60,8 @@ struct relief_patch_cache_stats {
 	uint64_t staging_bytes;   /* host-visible staging */
 	uint64_t decoded, evicted, bad, batches;
 	uint64_t gpu_ns;          /* summed GPU time of the decode batches (timestamps) */
+	uint64_t gpu_decode_ns;   /* of which heights: block error copies and the decode pass */
+	uint64_t gpu_normals_ns;  /* and normals: the normals pass */
 	uint64_t entropy_ns;      /* summed worker time in fetch + entropy decoding */
 };
 
