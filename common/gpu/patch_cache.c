@@ -1,5 +1,6 @@
 /* The GPU patch cache: see patch_cache.h for the rules it keeps. This file holds the
- * render-thread side (requests, layers, eviction, batches); the worker thread is at the end.
+ * render-thread side (creation, requests, layers, eviction, batches); the GPU commands are
+ * in patch_gpu.c and the worker threads in patch_worker.c.
  *
  * Locking: `lock` guards the request heap, `queued`, the free staging slots, the ready list
  * and the worker counters. Everything else (patch states, layers, batches, Vulkan objects)
@@ -12,169 +13,9 @@
 #include <string.h>
 #include <time.h>
 
-#include "decode.h"
-#include "patch_cache.h"
-#include "pipeline.h"
-
-#include "patch_decode.comp.spv.h"
-#include "patch_normals.comp.spv.h"
-
-#define MAX_BATCH 64
-#define IN_FLIGHT 3
-/* Items (quads or samples) per workgroup of the patch passes (shaders/patch_run.glsl). */
-#define RUN_ITEMS 1024u
-
-/* Twin of `Job` in shaders/patch_decode.comp and patch_normals.comp (std430). */
-struct job_params {
-	int32_t layer, parent_layer, quadrant, ratio;
-	uint32_t slot, flag;
-	int32_t mode, P;
-	uint32_t mask;
-	float q2, inv_2sx, inv_2sy;
-};
-_Static_assert(sizeof(struct job_params) == 48, "job record");
-
-struct request {
-	float prio;
-	uint32_t id;
-};
-
-/* A staging slot's content, handed from the worker to the render thread. */
-struct job {
-	uint32_t id, slot;
-	int result; /* 0, or the worker's negative errno */
-};
-
-struct batch {
-	bool busy;
-	VkCommandBuffer cmd;
-	VkFence fence;
-	uint32_t n;
-	struct job jobs[MAX_BATCH];
-	uint32_t layers[MAX_BATCH];
-};
-
-struct relief_patch_cache {
-	struct relief_vk *vk;            /* borrowed */
-	const struct relief_file *file;  /* borrowed */
-	struct relief_logger log;
-	struct relief_patch_cache_options o;
-	uint32_t P, E, count;
-	size_t errors_per_layer;         /* floats */
-	size_t slot_ints;                /* labels, values, mask, block errors */
-	size_t mask_ints;                /* P^2 validity bytes, four per int */
-
-	/* GPU objects */
-	struct relief_vk_image heights, normals;
-	struct relief_vk_buffer errors, staging, flags, layer_table, use_table;
-	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH], host-visible */
-	VkDescriptorSetLayout set_layout;
-	VkDescriptorPool descriptor_pool;
-	VkDescriptorSet set;
-	VkPipelineLayout pipeline_layout;
-	VkPipeline decode_pipeline, normals_pipeline;
-	VkCommandPool cmd_pool;
-	VkQueryPool timer;
-	struct batch batches[IN_FLIGHT];
-	struct relief_patch_pool pool;
-	uint64_t pool_bytes;
-
-	/* render-thread state, per patch */
-	uint8_t *state;
-	int32_t *layer; /* layer of each resident patch, -1 otherwise; mirrored to layer_table */
-	uint64_t *last_used;
-	uint16_t *children; /* resident children */
-	uint16_t *pins;     /* children queued or decoding */
-	/* per layer */
-	int32_t *owner;
-	uint32_t *free_layers, n_free_layers;
-	/* symbols ready, waiting for a layer and a batch */
-	struct job *pending;
-	uint32_t n_pending;
-	struct relief_patch_cache_stats stats;
-
-	/* shared with the worker, under lock */
-	pthread_mutex_t lock;
-	pthread_cond_t work, progress;
-	struct request *heap;
-	uint32_t n_heap, cap_heap;
-	uint8_t *queued;
-	uint32_t *free_slots, n_free_slots;
-	struct job *ready;
-	uint32_t n_ready;
-	uint32_t in_worker;
-	uint64_t entropy_ns;
-	bool stop;
-	uint32_t n_threads; /* workers started */
-	pthread_t threads[RELIEF_PATCH_CACHE_MAX_WORKERS];
-};
-
-static void *worker_main(void *data);
-
-static uint64_t now_ns(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
-	return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
-/* ---- request heap (min-heap on priority), under lock ---- */
-
-static int heap_push(struct relief_patch_cache *c, float prio, uint32_t id)
-{
-	if (c->n_heap == c->cap_heap) {
-		uint32_t cap = c->cap_heap ? 2 * c->cap_heap : 256;
-		struct request *h = realloc(c->heap, sizeof(*h) * cap);
-		if (!h)
-			return -ENOMEM;
-		c->heap = h;
-		c->cap_heap = cap;
-	}
-	uint32_t i = c->n_heap++;
-	while (i > 0 && c->heap[(i - 1) / 2].prio > prio) {
-		c->heap[i] = c->heap[(i - 1) / 2];
-		i = (i - 1) / 2;
-	}
-	c->heap[i] = (struct request){ prio, id };
-	return 0;
-}
-
-static struct request heap_pop(struct relief_patch_cache *c)
-{
-	struct request top = c->heap[0], last = c->heap[--c->n_heap];
-	uint32_t i = 0;
-	for (;;) {
-		uint32_t l = 2 * i + 1, r = l + 1, m = i;
-		float mp = last.prio;
-		if (l < c->n_heap && c->heap[l].prio < mp)
-			m = l, mp = c->heap[l].prio;
-		if (r < c->n_heap && c->heap[r].prio < mp)
-			m = r;
-		if (m == i)
-			break;
-		c->heap[i] = c->heap[m];
-		i = m;
-	}
-	if (c->n_heap)
-		c->heap[i] = last;
-	return top;
-}
+#include "patch_cache_internal.h"
 
 /* ---- creation ---- */
-
-static uint32_t parent_of(const struct relief_patch_cache *c, uint32_t id)
-{
-	uint32_t l, px, py;
-	relief_patch_coords(&c->file->layout, id, &l, &px, &py);
-	return relief_patch_id(l - 1, px / 2, py / 2);
-}
-
-/* A patch that is resident or on its way there: a child may be requested under it, and a
- * child's job keeps waiting for it. Any other state means it will not become resident. */
-static bool on_its_way(uint8_t state)
-{
-	return state == RELIEF_PATCH_RESIDENT || state == RELIEF_PATCH_QUEUED || state == RELIEF_PATCH_DECODING;
-}
 
 static const VkImageUsageFlags POOL_USAGE =
 	VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
@@ -205,159 +46,6 @@ static uint32_t layers_for_budget(struct relief_patch_cache *c, uint32_t cap)
 		n = n > over ? n - over : 0;
 	}
 	return (uint32_t)n;
-}
-
-static int create_descriptors(struct relief_patch_cache *c)
-{
-	struct relief_vk *vk = c->vk;
-	VkDescriptorSetLayoutBinding b[5] = {
-		{ 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
-		{ 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
-		{ 2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
-		{ 3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
-		{ 4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
-	};
-	VkDescriptorSetLayoutCreateInfo li = {
-		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-		.bindingCount = 5,
-		.pBindings = b,
-	};
-	int ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &c->set_layout),
-	                          "vkCreateDescriptorSetLayout");
-	if (ret < 0)
-		return ret;
-	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 },
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 },
-	};
-	VkDescriptorPoolCreateInfo pi = {
-		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
-		.maxSets = 1,
-		.poolSizeCount = 2,
-		.pPoolSizes = sizes,
-	};
-	if ((ret = relief_vk_check(vk, vkCreateDescriptorPool(vk->device, &pi, NULL, &c->descriptor_pool),
-	                           "vkCreateDescriptorPool")) < 0)
-		return ret;
-	VkDescriptorSetAllocateInfo ai = {
-		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
-		.descriptorPool = c->descriptor_pool,
-		.descriptorSetCount = 1,
-		.pSetLayouts = &c->set_layout,
-	};
-	if ((ret = relief_vk_check(vk, vkAllocateDescriptorSets(vk->device, &ai, &c->set), "vkAllocateDescriptorSets")) < 0)
-		return ret;
-	VkDescriptorImageInfo hi = { VK_NULL_HANDLE, c->heights.view, VK_IMAGE_LAYOUT_GENERAL };
-	VkDescriptorImageInfo ni = { VK_NULL_HANDLE, c->normals.view, VK_IMAGE_LAYOUT_GENERAL };
-	VkDescriptorBufferInfo si = { c->staging.buffer, 0, VK_WHOLE_SIZE };
-	VkDescriptorBufferInfo fi = { c->flags.buffer, 0, VK_WHOLE_SIZE };
-	VkDescriptorBufferInfo ji = { c->jobs.buffer, 0, VK_WHOLE_SIZE };
-	VkWriteDescriptorSet w[5] = {
-		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 0, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &hi, NULL, NULL },
-		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 1, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &ni, NULL, NULL },
-		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 2, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &si, NULL },
-		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 3, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &fi, NULL },
-		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 4, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &ji, NULL },
-	};
-	vkUpdateDescriptorSets(vk->device, 5, w, 0, NULL);
-	return 0;
-}
-
-static int create_pipelines(struct relief_patch_cache *c)
-{
-	struct relief_vk *vk = c->vk;
-	VkPushConstantRange range = { VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t) }; /* first job */
-	VkPipelineLayoutCreateInfo li = {
-		.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-		.setLayoutCount = 1,
-		.pSetLayouts = &c->set_layout,
-		.pushConstantRangeCount = 1,
-		.pPushConstantRanges = &range,
-	};
-	int ret = relief_vk_check(vk, vkCreatePipelineLayout(vk->device, &li, NULL, &c->pipeline_layout),
-	                          "vkCreatePipelineLayout");
-	if (ret < 0)
-		return ret;
-	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_decode_comp_spv),
-	                                             &c->decode_pipeline)) < 0)
-		return ret;
-	return relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_normals_comp_spv),
-	                                         &c->normals_pipeline);
-}
-
-static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags src_access,
-                           VkPipelineStageFlags dst, VkAccessFlags dst_access)
-{
-	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, src_access, dst_access };
-	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
-}
-
-/* Images start in GENERAL and stay there (storage writes, sampling, copies).
- * Puts the pools into the GENERAL layout, and runs both passes once on a job that does
- * nothing (mode 2): drivers that compile pipelines at their first use (lavapipe does)
- * compile them here, not while the first frames wait for patches. */
-static int init_layouts(struct relief_patch_cache *c)
-{
-	VkCommandBuffer cmd;
-	int ret = relief_vk_cmd_begin(c->vk, &cmd);
-	if (ret < 0)
-		return ret;
-	VkImageMemoryBarrier b[2];
-	const VkImage images[2] = { c->heights.image, c->normals.image };
-	for (int i = 0; i < 2; i++)
-		b[i] = (VkImageMemoryBarrier){
-			.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
-			.srcAccessMask = 0,
-			.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT,
-			.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
-			.newLayout = VK_IMAGE_LAYOUT_GENERAL,
-			.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-			.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-			.image = images[i],
-			.subresourceRange = { VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS },
-		};
-	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, NULL,
-	                     0, NULL, 2, b);
-	*(struct job_params *)c->jobs.map = (struct job_params){ .mode = 2 };
-	uint32_t first = 0;
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
-	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
-	vkCmdDispatch(cmd, 1, 1, 1);
-	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
-	vkCmdDispatch(cmd, 1, 1, 1);
-	return relief_vk_cmd_submit_wait(c->vk, cmd);
-}
-
-static int create_batches(struct relief_patch_cache *c)
-{
-	struct relief_vk *vk = c->vk;
-	VkCommandPoolCreateInfo pi = {
-		.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
-		.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
-		.queueFamilyIndex = vk->queue_family,
-	};
-	int ret = relief_vk_check(vk, vkCreateCommandPool(vk->device, &pi, NULL, &c->cmd_pool), "vkCreateCommandPool");
-	if (ret < 0)
-		return ret;
-	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 3 * IN_FLIGHT, &c->timer)) < 0)
-		return ret;
-	for (int i = 0; i < IN_FLIGHT; i++) {
-		VkCommandBufferAllocateInfo ai = {
-			.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
-			.commandPool = c->cmd_pool,
-			.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
-			.commandBufferCount = 1,
-		};
-		VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
-		if ((ret = relief_vk_check(vk, vkAllocateCommandBuffers(vk->device, &ai, &c->batches[i].cmd),
-		                           "vkAllocateCommandBuffers")) < 0 ||
-		    (ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &c->batches[i].fence), "vkCreateFence")) < 0)
-			return ret;
-	}
-	return 0;
 }
 
 int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
@@ -470,11 +158,10 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	for (uint32_t i = 0; i < c->o.staging_slots; i++)
 		c->free_slots[i] = c->o.staging_slots - 1 - i;
 	c->n_free_slots = c->o.staging_slots;
-	if ((ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0 ||
-	    (ret = init_layouts(c)) < 0)
+	if ((ret = patch_gpu_init(c)) < 0)
 		goto fail;
 	for (; c->n_threads < c->o.workers; c->n_threads++)
-		if (pthread_create(&c->threads[c->n_threads], NULL, worker_main, c) != 0) {
+		if (pthread_create(&c->threads[c->n_threads], NULL, patch_worker_main, c) != 0) {
 			ret = -EAGAIN;
 			goto fail;
 		}
@@ -503,23 +190,7 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 	struct relief_vk *vk = c->vk;
 	if (vk->device)
 		vkDeviceWaitIdle(vk->device);
-	for (int i = 0; i < IN_FLIGHT; i++)
-		if (c->batches[i].fence)
-			vkDestroyFence(vk->device, c->batches[i].fence, NULL);
-	if (c->cmd_pool)
-		vkDestroyCommandPool(vk->device, c->cmd_pool, NULL);
-	if (c->timer)
-		vkDestroyQueryPool(vk->device, c->timer, NULL);
-	if (c->decode_pipeline)
-		vkDestroyPipeline(vk->device, c->decode_pipeline, NULL);
-	if (c->normals_pipeline)
-		vkDestroyPipeline(vk->device, c->normals_pipeline, NULL);
-	if (c->pipeline_layout)
-		vkDestroyPipelineLayout(vk->device, c->pipeline_layout, NULL);
-	if (c->descriptor_pool)
-		vkDestroyDescriptorPool(vk->device, c->descriptor_pool, NULL);
-	if (c->set_layout)
-		vkDestroyDescriptorSetLayout(vk->device, c->set_layout, NULL);
+	patch_gpu_finish(c);
 	relief_vk_image_finish(vk, &c->heights);
 	relief_vk_image_finish(vk, &c->normals);
 	relief_vk_buffer_finish(vk, &c->errors);
@@ -572,7 +243,7 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 	}
 	c->state[id] = RELIEF_PATCH_QUEUED;
 	pthread_mutex_lock(&c->lock);
-	int ret = heap_push(c, priority, id);
+	int ret = patch_queue_push(c, priority, id);
 	/* The child's symbols can be decoded while its parent is on its way; the worker must
 	 * still take the ancestors first (a child's slot is held until its parent is resident),
 	 * so those still in the heap are pushed again ahead of it (the stale entries are
@@ -583,7 +254,7 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 		if (!c->queued[a])
 			break;
 		ahead = fminf(ahead - 1.0f, nextafterf(ahead, -INFINITY)); /* strictly ahead, any magnitude */
-		ret = heap_push(c, ahead, a);
+		ret = patch_queue_push(c, ahead, a);
 	}
 	if (ret == 0) {
 		c->queued[id] = 1;
@@ -693,113 +364,9 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 		}
 		release_slot(c, b->jobs[i].slot);
 	}
-	if (c->timer) {
-		/* Timestamps: batch start, decode pass done, normals pass done. */
-		uint64_t t[3];
-		uint32_t first = (uint32_t)(b - c->batches) * 3;
-		const double period = c->vk->props.limits.timestampPeriod;
-		if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 3, sizeof(t), t, sizeof(uint64_t),
-		                          VK_QUERY_RESULT_64_BIT) == VK_SUCCESS) {
-			c->stats.gpu_ns += (uint64_t)((double)(t[2] - t[0]) * period);
-			c->stats.gpu_decode_ns += (uint64_t)((double)(t[1] - t[0]) * period);
-			c->stats.gpu_normals_ns += (uint64_t)((double)(t[2] - t[1]) * period);
-		}
-	}
+	patch_gpu_time(c, b);
 	b->busy = false;
 	b->n = 0;
-}
-
-static int submit(struct relief_patch_cache *c, struct batch *b)
-{
-	struct relief_vk *vk = c->vk;
-	const struct relief_layout *lay = &c->file->layout;
-	VkCommandBuffer cmd = b->cmd;
-	int ret = relief_vk_check(vk, vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
-	VkCommandBufferBeginInfo bi = {
-		.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-		.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
-	};
-	if (ret < 0 || (ret = relief_vk_check(vk, vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer")) < 0)
-		return ret;
-	uint32_t q = (uint32_t)(b - c->batches) * 3;
-	if (c->timer) {
-		vkCmdResetQueryPool(cmd, c->timer, q, 3);
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, c->timer, q);
-	}
-	/* Earlier batches (parents, reused layers) and readers of evicted layers come first. */
-	memory_barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
-	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
-	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT);
-	uint32_t *flags = c->flags.map;
-	for (uint32_t i = 0; i < b->n; i++) {
-		size_t slot_base = (size_t)b->jobs[i].slot * c->slot_ints;
-		VkBufferCopy copy = {
-			.srcOffset = (slot_base + c->slot_ints - c->errors_per_layer) * 4,
-			.dstOffset = (VkDeviceSize)b->layers[i] * c->errors_per_layer * sizeof(float),
-			.size = c->errors_per_layer * sizeof(float),
-		};
-		vkCmdCopyBuffer(cmd, c->staging.buffer, c->errors.buffer, 1, &copy);
-		flags[b->jobs[i].slot] = 0;
-	}
-	/* One record per job, read by both passes; each pass is one dispatch for the batch. */
-	uint32_t first = (uint32_t)(b - c->batches) * MAX_BATCH;
-	struct job_params *jp = (struct job_params *)c->jobs.map + first;
-	for (uint32_t i = 0; i < b->n; i++) {
-		uint32_t id = b->jobs[i].id, l, px, py;
-		relief_patch_coords(lay, id, &l, &px, &py);
-		double step = (double)(1u << (lay->levels - 1 - l));
-		struct relief_patch_record rec;
-		relief_file_record(c->file, id, &rec);
-		jp[i] = (struct job_params){
-			.layer = (int32_t)b->layers[i],
-			.parent_layer = id ? c->layer[parent_of(c, id)] : 0,
-			.quadrant = (int32_t)((px & 1) | ((py & 1) << 1)),
-			.ratio = (int32_t)lay->ratio,
-			.slot = (uint32_t)(b->jobs[i].slot * c->slot_ints),
-			.flag = b->jobs[i].slot,
-			.mode = id == 0,
-			.P = (int32_t)c->P,
-			.mask = (rec.flags & RELIEF_PATCH_MASKED)
-			            ? (uint32_t)(b->jobs[i].slot * c->slot_ints + lay->geom.n_labels + (size_t)c->E * c->E)
-			            : UINT32_MAX,
-			.q2 = (float)(2.0 * lay->delta[l]),
-			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
-			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
-		};
-	}
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
-	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
-	/* Workgroup x: runs of about RUN_ITEMS items, ((P + 3) / 2)^2 quads for decode and P^2
-	 * samples for normals; workgroup z: the job. */
-	const uint32_t quads = (c->P + 3) / 2;
-	const uint32_t runs_e = (quads * quads + RUN_ITEMS - 1) / RUN_ITEMS;
-	const uint32_t runs_p = (c->P * c->P + RUN_ITEMS - 1) / RUN_ITEMS;
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
-	vkCmdDispatch(cmd, runs_e, 1, b->n);
-	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
-	if (c->timer) /* after the barrier: the decode pass has finished */
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 1);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
-	vkCmdDispatch(cmd, runs_p, 1, b->n);
-	/* Make the results visible to every later reader, and the flags to the host. */
-	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
-	               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT,
-	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
-	if (c->timer)
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 2);
-	if ((ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer")) < 0)
-		return ret;
-	if ((ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &b->fence), "vkResetFences")) < 0)
-		return ret;
-	VkSubmitInfo si = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd };
-	if ((ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &si, b->fence), "vkQueueSubmit")) < 0)
-		return ret;
-	b->busy = true;
-	c->stats.batches++;
-	return 0;
 }
 
 int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
@@ -863,7 +430,7 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 		c->n_pending = kept;
 		if (!b->n)
 			break;
-		if ((ret = submit(c, b)) < 0)
+		if ((ret = patch_gpu_submit(c, b)) < 0)
 			return ret;
 	}
 	return made;
@@ -930,141 +497,3 @@ const struct relief_patch_pool *relief_patch_cache_pool(const struct relief_patc
 	return &c->pool;
 }
 
-int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, int32_t *heights, int8_t *normals,
-                                  float *block_errors)
-{
-	if (layer >= c->pool.layers)
-		return -EINVAL;
-	struct relief_vk *vk = c->vk;
-	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->errors_per_layer * sizeof(float);
-	struct relief_vk_buffer out;
-	int ret = relief_vk_buffer_init(vk, &out, hb + nb + eb, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
-	if (ret < 0)
-		return ret;
-	VkCommandBuffer cmd;
-	if ((ret = relief_vk_cmd_begin(vk, &cmd)) < 0) {
-		relief_vk_buffer_finish(vk, &out);
-		return ret;
-	}
-	/* The layer goes to TRANSFER_SRC_OPTIMAL for the copy and back to GENERAL. */
-	VkImageMemoryBarrier to[2], back[2];
-	const VkImage images[2] = { c->heights.image, c->normals.image };
-	for (int i = 0; i < 2; i++) {
-		to[i] = (VkImageMemoryBarrier){
-			.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
-			.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
-			.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT,
-			.oldLayout = VK_IMAGE_LAYOUT_GENERAL,
-			.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-			.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-			.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-			.image = images[i],
-			.subresourceRange = { VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, layer, 1 },
-		};
-		back[i] = to[i];
-		back[i].srcAccessMask = 0;
-		back[i].dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-		back[i].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-		back[i].newLayout = VK_IMAGE_LAYOUT_GENERAL;
-	}
-	VkMemoryBarrier mb = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL,
-	                       VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT };
-	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &mb, 0, NULL,
-	                     2, to);
-	VkBufferImageCopy h = {
-		.bufferOffset = 0,
-		.imageSubresource = { VK_IMAGE_ASPECT_COLOR_BIT, 0, layer, 1 },
-		.imageExtent = { c->E, c->E, 1 },
-	};
-	VkBufferImageCopy n = h;
-	n.bufferOffset = hb;
-	n.imageExtent = (VkExtent3D){ c->P, c->P, 1 };
-	vkCmdCopyImageToBuffer(cmd, c->heights.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.buffer, 1, &h);
-	vkCmdCopyImageToBuffer(cmd, c->normals.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.buffer, 1, &n);
-	VkBufferCopy e = { (VkDeviceSize)layer * eb, hb + nb, eb };
-	vkCmdCopyBuffer(cmd, c->errors.buffer, out.buffer, 1, &e);
-	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0, NULL, 0, NULL,
-	                     2, back);
-	memory_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-	               VK_ACCESS_HOST_READ_BIT);
-	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) == 0) {
-		const uint8_t *m = out.map;
-		if (heights)
-			memcpy(heights, m, hb);
-		if (normals)
-			memcpy(normals, m + hb, nb);
-		if (block_errors)
-			memcpy(block_errors, m + hb + nb, eb);
-	}
-	relief_vk_buffer_finish(vk, &out);
-	return ret;
-}
-
-/* ---- the worker: fetch, check, entropy-decode into a staging slot ---- */
-
-static int fill_slot(struct relief_patch_cache *c, struct relief_decoder *dec, int32_t *root_tmp, uint32_t id,
-                     uint32_t slot)
-{
-	const struct relief_patch_geom *g = &c->file->layout.geom;
-	int ret = relief_decoder_symbols(dec, id);
-	if (ret < 0)
-		return ret;
-	int32_t *s = (int32_t *)c->staging.map + (size_t)slot * c->slot_ints;
-	int32_t *values = s + g->n_labels;
-	if (id == 0) {
-		/* The root's MED prediction runs in raster order: reconstructed here, copied on the GPU. */
-		if ((ret = relief_root_reconstruct(g, dec->residuals, root_tmp)) < 0)
-			return ret;
-		memcpy(values, root_tmp, sizeof(int32_t) * g->E * g->E);
-	} else {
-		for (uint32_t i = 0; i < g->n_labels; i++)
-			s[i] = dec->labels[i];
-		memcpy(values, dec->residuals, sizeof(int32_t) * g->n_residuals);
-	}
-	struct relief_patch_record rec;
-	relief_file_record(c->file, id, &rec);
-	if (rec.flags & RELIEF_PATCH_MASKED) {
-		/* Validity bytes, four per int, read by the normals pass into the normals' w. */
-		uint8_t *mask = (uint8_t *)(values + (size_t)g->E * g->E);
-		memset(mask, 0, c->mask_ints * 4);
-		if ((ret = relief_file_mask(c->file, id, mask)) < 0)
-			return ret;
-	}
-	relief_file_block_errors(c->file, id, (float *)(s + c->slot_ints - c->errors_per_layer));
-	return 0;
-}
-
-static void *worker_main(void *data)
-{
-	struct relief_patch_cache *c = data;
-	struct relief_decoder dec;
-	int init = relief_decoder_init(&dec, c->file);
-	int32_t *root_tmp = malloc(sizeof(int32_t) * c->E * c->E);
-	pthread_mutex_lock(&c->lock);
-	for (;;) {
-		while (!c->stop && (c->n_heap == 0 || c->n_free_slots == 0))
-			pthread_cond_wait(&c->work, &c->lock);
-		if (c->stop)
-			break;
-		struct request r = heap_pop(c);
-		if (!c->queued[r.id])
-			continue; /* a duplicate of a request already served */
-		c->queued[r.id] = 0;
-		uint32_t slot = c->free_slots[--c->n_free_slots];
-		c->in_worker++;
-		pthread_mutex_unlock(&c->lock);
-		uint64_t t0 = now_ns();
-		int result = init < 0 ? init : !root_tmp ? -ENOMEM : fill_slot(c, &dec, root_tmp, r.id, slot);
-		uint64_t t1 = now_ns();
-		pthread_mutex_lock(&c->lock);
-		c->ready[c->n_ready++] = (struct job){ r.id, slot, result };
-		c->in_worker--;
-		c->entropy_ns += t1 - t0;
-		pthread_cond_broadcast(&c->progress);
-	}
-	pthread_mutex_unlock(&c->lock);
-	free(root_tmp);
-	if (init == 0)
-		relief_decoder_finish(&dec);
-	return NULL;
-}

@@ -1,0 +1,371 @@
+/* The GPU side of the patch cache: descriptors, the two compute pipelines, the batches'
+ * command buffers and the timestamps around the passes (patch_cache_internal.h). */
+#include <errno.h>
+#include <string.h>
+
+#include "patch_cache_internal.h"
+
+#include "patch_decode.comp.spv.h"
+#include "patch_normals.comp.spv.h"
+
+static int create_descriptors(struct relief_patch_cache *c)
+{
+	struct relief_vk *vk = c->vk;
+	VkDescriptorSetLayoutBinding b[5] = {
+		{ 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+	};
+	VkDescriptorSetLayoutCreateInfo li = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+		.bindingCount = 5,
+		.pBindings = b,
+	};
+	int ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &c->set_layout),
+	                          "vkCreateDescriptorSetLayout");
+	if (ret < 0)
+		return ret;
+	VkDescriptorPoolSize sizes[2] = {
+		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 },
+	};
+	VkDescriptorPoolCreateInfo pi = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+		.maxSets = 1,
+		.poolSizeCount = 2,
+		.pPoolSizes = sizes,
+	};
+	if ((ret = relief_vk_check(vk, vkCreateDescriptorPool(vk->device, &pi, NULL, &c->descriptor_pool),
+	                           "vkCreateDescriptorPool")) < 0)
+		return ret;
+	VkDescriptorSetAllocateInfo ai = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+		.descriptorPool = c->descriptor_pool,
+		.descriptorSetCount = 1,
+		.pSetLayouts = &c->set_layout,
+	};
+	if ((ret = relief_vk_check(vk, vkAllocateDescriptorSets(vk->device, &ai, &c->set), "vkAllocateDescriptorSets")) < 0)
+		return ret;
+	VkDescriptorImageInfo hi = { VK_NULL_HANDLE, c->heights.view, VK_IMAGE_LAYOUT_GENERAL };
+	VkDescriptorImageInfo ni = { VK_NULL_HANDLE, c->normals.view, VK_IMAGE_LAYOUT_GENERAL };
+	VkDescriptorBufferInfo si = { c->staging.buffer, 0, VK_WHOLE_SIZE };
+	VkDescriptorBufferInfo fi = { c->flags.buffer, 0, VK_WHOLE_SIZE };
+	VkDescriptorBufferInfo ji = { c->jobs.buffer, 0, VK_WHOLE_SIZE };
+	VkWriteDescriptorSet w[5] = {
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 0, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &hi, NULL, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 1, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &ni, NULL, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 2, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &si, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 3, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &fi, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 4, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &ji, NULL },
+	};
+	vkUpdateDescriptorSets(vk->device, 5, w, 0, NULL);
+	return 0;
+}
+
+static int create_pipelines(struct relief_patch_cache *c)
+{
+	struct relief_vk *vk = c->vk;
+	VkPushConstantRange range = { VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t) }; /* first job */
+	VkPipelineLayoutCreateInfo li = {
+		.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+		.setLayoutCount = 1,
+		.pSetLayouts = &c->set_layout,
+		.pushConstantRangeCount = 1,
+		.pPushConstantRanges = &range,
+	};
+	int ret = relief_vk_check(vk, vkCreatePipelineLayout(vk->device, &li, NULL, &c->pipeline_layout),
+	                          "vkCreatePipelineLayout");
+	if (ret < 0)
+		return ret;
+	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_decode_comp_spv),
+	                                             &c->decode_pipeline)) < 0)
+		return ret;
+	return relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_normals_comp_spv),
+	                                         &c->normals_pipeline);
+}
+
+static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags src_access,
+                           VkPipelineStageFlags dst, VkAccessFlags dst_access)
+{
+	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, src_access, dst_access };
+	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
+}
+
+/* Images start in GENERAL and stay there (storage writes, sampling, copies).
+ * Puts the pools into the GENERAL layout, and runs both passes once on a job that does
+ * nothing (mode 2): drivers that compile pipelines at their first use (lavapipe does)
+ * compile them here, not while the first frames wait for patches. */
+static int init_layouts(struct relief_patch_cache *c)
+{
+	VkCommandBuffer cmd;
+	int ret = relief_vk_cmd_begin(c->vk, &cmd);
+	if (ret < 0)
+		return ret;
+	VkImageMemoryBarrier b[2];
+	const VkImage images[2] = { c->heights.image, c->normals.image };
+	for (int i = 0; i < 2; i++)
+		b[i] = (VkImageMemoryBarrier){
+			.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
+			.srcAccessMask = 0,
+			.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+			.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+			.newLayout = VK_IMAGE_LAYOUT_GENERAL,
+			.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+			.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+			.image = images[i],
+			.subresourceRange = { VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS },
+		};
+	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, NULL,
+	                     0, NULL, 2, b);
+	*(struct job_params *)c->jobs.map = (struct job_params){ .mode = 2 };
+	uint32_t first = 0;
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
+	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
+	vkCmdDispatch(cmd, 1, 1, 1);
+	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdDispatch(cmd, 1, 1, 1);
+	return relief_vk_cmd_submit_wait(c->vk, cmd);
+}
+
+static int create_batches(struct relief_patch_cache *c)
+{
+	struct relief_vk *vk = c->vk;
+	VkCommandPoolCreateInfo pi = {
+		.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+		.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+		.queueFamilyIndex = vk->queue_family,
+	};
+	int ret = relief_vk_check(vk, vkCreateCommandPool(vk->device, &pi, NULL, &c->cmd_pool), "vkCreateCommandPool");
+	if (ret < 0)
+		return ret;
+	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 3 * IN_FLIGHT, &c->timer)) < 0)
+		return ret;
+	for (int i = 0; i < IN_FLIGHT; i++) {
+		VkCommandBufferAllocateInfo ai = {
+			.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
+			.commandPool = c->cmd_pool,
+			.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
+			.commandBufferCount = 1,
+		};
+		VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
+		if ((ret = relief_vk_check(vk, vkAllocateCommandBuffers(vk->device, &ai, &c->batches[i].cmd),
+		                           "vkAllocateCommandBuffers")) < 0 ||
+		    (ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &c->batches[i].fence), "vkCreateFence")) < 0)
+			return ret;
+	}
+	return 0;
+}
+
+int patch_gpu_init(struct relief_patch_cache *c)
+{
+	int ret;
+	if ((ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
+		return ret;
+	return init_layouts(c);
+}
+
+void patch_gpu_finish(struct relief_patch_cache *c)
+{
+	struct relief_vk *vk = c->vk;
+	for (int i = 0; i < IN_FLIGHT; i++)
+		if (c->batches[i].fence)
+			vkDestroyFence(vk->device, c->batches[i].fence, NULL);
+	if (c->cmd_pool)
+		vkDestroyCommandPool(vk->device, c->cmd_pool, NULL);
+	if (c->timer)
+		vkDestroyQueryPool(vk->device, c->timer, NULL);
+	if (c->decode_pipeline)
+		vkDestroyPipeline(vk->device, c->decode_pipeline, NULL);
+	if (c->normals_pipeline)
+		vkDestroyPipeline(vk->device, c->normals_pipeline, NULL);
+	if (c->pipeline_layout)
+		vkDestroyPipelineLayout(vk->device, c->pipeline_layout, NULL);
+	if (c->descriptor_pool)
+		vkDestroyDescriptorPool(vk->device, c->descriptor_pool, NULL);
+	if (c->set_layout)
+		vkDestroyDescriptorSetLayout(vk->device, c->set_layout, NULL);
+}
+
+void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)
+{
+	if (!c->timer)
+		return;
+	/* Timestamps: batch start, decode pass done, normals pass done. */
+	uint64_t t[3];
+	uint32_t first = (uint32_t)(b - c->batches) * 3;
+	const double period = c->vk->props.limits.timestampPeriod;
+	if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 3, sizeof(t), t, sizeof(uint64_t),
+	                          VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
+		return;
+	c->stats.gpu_ns += (uint64_t)((double)(t[2] - t[0]) * period);
+	c->stats.gpu_decode_ns += (uint64_t)((double)(t[1] - t[0]) * period);
+	c->stats.gpu_normals_ns += (uint64_t)((double)(t[2] - t[1]) * period);
+}
+
+int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
+{
+	struct relief_vk *vk = c->vk;
+	const struct relief_layout *lay = &c->file->layout;
+	VkCommandBuffer cmd = b->cmd;
+	int ret = relief_vk_check(vk, vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
+	VkCommandBufferBeginInfo bi = {
+		.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+		.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
+	};
+	if (ret < 0 || (ret = relief_vk_check(vk, vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer")) < 0)
+		return ret;
+	uint32_t q = (uint32_t)(b - c->batches) * 3;
+	if (c->timer) {
+		vkCmdResetQueryPool(cmd, c->timer, q, 3);
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, c->timer, q);
+	}
+	/* Earlier batches (parents, reused layers) and readers of evicted layers come first. */
+	memory_barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT);
+	uint32_t *flags = c->flags.map;
+	for (uint32_t i = 0; i < b->n; i++) {
+		size_t slot_base = (size_t)b->jobs[i].slot * c->slot_ints;
+		VkBufferCopy copy = {
+			.srcOffset = (slot_base + c->slot_ints - c->errors_per_layer) * 4,
+			.dstOffset = (VkDeviceSize)b->layers[i] * c->errors_per_layer * sizeof(float),
+			.size = c->errors_per_layer * sizeof(float),
+		};
+		vkCmdCopyBuffer(cmd, c->staging.buffer, c->errors.buffer, 1, &copy);
+		flags[b->jobs[i].slot] = 0;
+	}
+	/* One record per job, read by both passes; each pass is one dispatch for the batch. */
+	uint32_t first = (uint32_t)(b - c->batches) * MAX_BATCH;
+	struct job_params *jp = (struct job_params *)c->jobs.map + first;
+	for (uint32_t i = 0; i < b->n; i++) {
+		uint32_t id = b->jobs[i].id, l, px, py;
+		relief_patch_coords(lay, id, &l, &px, &py);
+		double step = (double)(1u << (lay->levels - 1 - l));
+		struct relief_patch_record rec;
+		relief_file_record(c->file, id, &rec);
+		jp[i] = (struct job_params){
+			.layer = (int32_t)b->layers[i],
+			.parent_layer = id ? c->layer[parent_of(c, id)] : 0,
+			.quadrant = (int32_t)((px & 1) | ((py & 1) << 1)),
+			.ratio = (int32_t)lay->ratio,
+			.slot = (uint32_t)(b->jobs[i].slot * c->slot_ints),
+			.flag = b->jobs[i].slot,
+			.mode = id == 0,
+			.P = (int32_t)c->P,
+			.mask = (rec.flags & RELIEF_PATCH_MASKED)
+			            ? (uint32_t)(b->jobs[i].slot * c->slot_ints + lay->geom.n_labels + (size_t)c->E * c->E)
+			            : UINT32_MAX,
+			.q2 = (float)(2.0 * lay->delta[l]),
+			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
+			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
+		};
+	}
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
+	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
+	/* Workgroup x: runs of about RUN_ITEMS items, ((P + 3) / 2)^2 quads for decode and P^2
+	 * samples for normals; workgroup z: the job. */
+	const uint32_t quads = (c->P + 3) / 2;
+	const uint32_t runs_e = (quads * quads + RUN_ITEMS - 1) / RUN_ITEMS;
+	const uint32_t runs_p = (c->P * c->P + RUN_ITEMS - 1) / RUN_ITEMS;
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
+	vkCmdDispatch(cmd, runs_e, 1, b->n);
+	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+	if (c->timer) /* after the barrier: the decode pass has finished */
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 1);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdDispatch(cmd, runs_p, 1, b->n);
+	/* Make the results visible to every later reader, and the flags to the host. */
+	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+	if (c->timer)
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 2);
+	if ((ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer")) < 0)
+		return ret;
+	if ((ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &b->fence), "vkResetFences")) < 0)
+		return ret;
+	VkSubmitInfo si = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd };
+	if ((ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &si, b->fence), "vkQueueSubmit")) < 0)
+		return ret;
+	b->busy = true;
+	c->stats.batches++;
+	return 0;
+}
+
+int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, int32_t *heights, int8_t *normals,
+                                  float *block_errors)
+{
+	if (layer >= c->pool.layers)
+		return -EINVAL;
+	struct relief_vk *vk = c->vk;
+	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->errors_per_layer * sizeof(float);
+	struct relief_vk_buffer out;
+	int ret = relief_vk_buffer_init(vk, &out, hb + nb + eb, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+	if (ret < 0)
+		return ret;
+	VkCommandBuffer cmd;
+	if ((ret = relief_vk_cmd_begin(vk, &cmd)) < 0) {
+		relief_vk_buffer_finish(vk, &out);
+		return ret;
+	}
+	/* The layer goes to TRANSFER_SRC_OPTIMAL for the copy and back to GENERAL. */
+	VkImageMemoryBarrier to[2], back[2];
+	const VkImage images[2] = { c->heights.image, c->normals.image };
+	for (int i = 0; i < 2; i++) {
+		to[i] = (VkImageMemoryBarrier){
+			.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
+			.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT,
+			.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT,
+			.oldLayout = VK_IMAGE_LAYOUT_GENERAL,
+			.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+			.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+			.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+			.image = images[i],
+			.subresourceRange = { VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, layer, 1 },
+		};
+		back[i] = to[i];
+		back[i].srcAccessMask = 0;
+		back[i].dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+		back[i].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+		back[i].newLayout = VK_IMAGE_LAYOUT_GENERAL;
+	}
+	VkMemoryBarrier mb = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL,
+	                       VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT };
+	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 1, &mb, 0, NULL,
+	                     2, to);
+	VkBufferImageCopy h = {
+		.bufferOffset = 0,
+		.imageSubresource = { VK_IMAGE_ASPECT_COLOR_BIT, 0, layer, 1 },
+		.imageExtent = { c->E, c->E, 1 },
+	};
+	VkBufferImageCopy n = h;
+	n.bufferOffset = hb;
+	n.imageExtent = (VkExtent3D){ c->P, c->P, 1 };
+	vkCmdCopyImageToBuffer(cmd, c->heights.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.buffer, 1, &h);
+	vkCmdCopyImageToBuffer(cmd, c->normals.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.buffer, 1, &n);
+	VkBufferCopy e = { (VkDeviceSize)layer * eb, hb + nb, eb };
+	vkCmdCopyBuffer(cmd, c->errors.buffer, out.buffer, 1, &e);
+	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 0, NULL, 0, NULL,
+	                     2, back);
+	memory_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+	               VK_ACCESS_HOST_READ_BIT);
+	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) == 0) {
+		const uint8_t *m = out.map;
+		if (heights)
+			memcpy(heights, m, hb);
+		if (normals)
+			memcpy(normals, m + hb, nb);
+		if (block_errors)
+			memcpy(block_errors, m + hb + nb, eb);
+	}
+	relief_vk_buffer_finish(vk, &out);
+	return ret;
+}
