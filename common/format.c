@@ -387,6 +387,10 @@ int relief_file_open(const char *path, struct relief_file **out, char *err, size
 		return -ENOMEM;
 	}
 	f->fd = fd;
+	if (!(f->path = strdup(path))) {
+		relief_file_close(f);
+		return -ENOMEM;
+	}
 	uint8_t head[RELIEF_HEADER_SIZE];
 	size_t size = (size_t)st.st_size;
 	int ret;
@@ -420,6 +424,11 @@ fail:
 	return ret;
 }
 
+const char *relief_file_name(const struct relief_file *f)
+{
+	return f->path ? f->path : "(memory image)";
+}
+
 void relief_file_close(struct relief_file *f)
 {
 	if (!f)
@@ -428,6 +437,7 @@ void relief_file_close(struct relief_file *f)
 		close(f->fd);
 	free(f->meta_owned);
 	free(f->crs);
+	free(f->path);
 	free(f);
 }
 

@@ -90,6 +90,7 @@ struct relief_file {
 	int fd;                /* files only: CLOEXEC, for pread(); -1 for memory images */
 	uint32_t max_stream;   /* largest patch stream, bytes */
 	char *crs;             /* NUL-terminated copy of the CRS text (may be empty) */
+	char *path;            /* files only: the path it was opened with (for messages) */
 };
 
 /* Opens and validates a file. err receives a one-line reason on failure. */
@@ -97,6 +98,8 @@ int relief_file_open(const char *path, struct relief_file **out, char *err, size
 /* Validates a file image in memory; the buffer is borrowed and must outlive the file. */
 int relief_file_open_memory(const void *buf, size_t size, struct relief_file **out, char *err, size_t err_size);
 void relief_file_close(struct relief_file *f);
+/* What messages call the file: its path, or "(memory image)". */
+const char *relief_file_name(const struct relief_file *f);
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r);
 /* Reads patch id's stream into buf (at least max_stream bytes) and checks its CRC:

@@ -323,9 +323,10 @@ static void mark_bad(struct relief_patch_cache *c, uint32_t id, int why)
 	relief_patch_coords(&c->file->layout, id, &l, &px, &py);
 	c->state[id] = RELIEF_PATCH_BAD; /* final: logged exactly once */
 	c->stats.bad++;
-	relief_log(&c->log, RELIEF_LOG_ERROR, "patch %u (level %u, %u,%u): %s; its parent keeps serving the area", id, l,
-	           px, py, why == -EBADMSG ? "corrupt (checksum or values)" : why == -EIO ? "missing from the file"
-	                                                                      : "cannot be decoded");
+	relief_log(&c->log, RELIEF_LOG_ERROR, "%s: patch %u (level %u, %u,%u): %s; its parent keeps serving the area",
+	           relief_file_name(c->file), id, l, px, py,
+	           why == -EBADMSG ? "corrupt (checksum or values)" : why == -EIO ? "missing from the file"
+	                                                           : "cannot be decoded");
 	if (id != 0)
 		c->pins[parent_of(c, id)]--;
 }

@@ -302,10 +302,22 @@ static void test_priority_and_dedup(void **state)
 }
 
 static unsigned logged_errors;
+static char last_error[512];
 static void count_log(void *data, enum relief_log_level level, const char *fmt, va_list ap)
 {
-	if (level == RELIEF_LOG_ERROR)
+	if (level == RELIEF_LOG_ERROR) {
 		logged_errors++;
+		vsnprintf(last_error, sizeof(last_error), fmt, ap);
+	}
+}
+
+/* The one message names the file and the patch. */
+static void expect_bad_message(const char *file, uint32_t id)
+{
+	char want[64];
+	snprintf(want, sizeof(want), ": patch %u (level ", id);
+	if (!strstr(last_error, file) || !strstr(last_error, want))
+		fail_msg("message '%s' does not name '%s' and patch %u", last_error, file, id);
 }
 
 /* A corrupt patch at level vl, position (vx, vy) of Puget Sound: it is marked bad once,
@@ -328,6 +340,7 @@ static void check_corrupt_patch(uint32_t vl, uint32_t vx, uint32_t vy)
 	load_all(c, f, 1); /* nothing has run when the victim's descendants are requested */
 	assert_int_equal(relief_patch_cache_state(c, victim), RELIEF_PATCH_BAD);
 	assert_int_equal(logged_errors, 1);
+	expect_bad_message("(memory image)", victim);
 	/* Asking again neither retries nor logs again; its parent and neighbours are fine. */
 	assert_int_equal(relief_patch_cache_request(c, victim, 0), -EIO);
 	assert_int_equal(relief_patch_cache_flush(c, 2), 0);
@@ -384,6 +397,8 @@ static void test_truncated_at_run_time(void **state)
 	print_message("truncated file: %u patches resident, %u refused\n", resident, bad);
 	assert_true(bad > 0 && resident > 0);
 	assert_int_equal(logged_errors, bad);
+	if (!strstr(last_error, path) || !strstr(last_error, "missing from the file"))
+		fail_msg("message '%s' does not name %s and the cause", last_error, path);
 	relief_patch_cache_destroy(c);
 	relief_file_close(f);
 	free(img);
