@@ -47,11 +47,10 @@ static void report(const struct ctx *c, const struct result *r)
 		cli_json_string(stdout, r->file);
 		printf(",\"method\":\"%s\",\"tolerance_m\":%g,\"bytes\":%zu,\"ratio\":%.4f,"
 		       "\"bits_per_sample\":%.4f,\"max_error_m\":%.6g,\"encode_msps\":%.3f,\"decode_msps\":%.3f,"
-		       "\"patch_decode_msps\":%.3f,\"runs\":%u,\"samples\":%.0f,\"valid_samples\":%llu,\"cpu\":",
+		       "\"patch_decode_msps\":%.3f,\"runs\":%u,\"samples\":%.0f,\"valid_samples\":%llu",
 		       r->method, r->tolerance, r->bytes, raw / r->bytes, 8.0 * r->bytes / c->valid, r->max_error, enc, dec,
 		       r->patch_msps, c->runs, samples, (unsigned long long)c->valid);
-		cli_json_string(stdout, bench_cpu_name());
-		printf("}\n");
+		bench_json_machine(NULL);
 	} else {
 		printf("%-22s %-14s %8g %10zu %7.2f %7.3f %10.4g %9.2f %9.2f\n", r->file, r->method, r->tolerance,
 		       r->bytes, raw / r->bytes, 8.0 * r->bytes / c->valid, r->max_error, enc, dec);

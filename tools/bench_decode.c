@@ -147,14 +147,11 @@ int bench_decode(int argc, char **argv)
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
 		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
 		       "\"gpu_normals_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
-		       "\"workers\":%u,\"runs\":%u,\"device\":",
+		       "\"workers\":%u,\"runs\":%u",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, gd * 1e3, gn * 1e3,
 		       w * 1e3, (unsigned long long)st.batches, workers, runs);
-		cli_json_string(stdout, vk->props.deviceName);
-		printf(",\"cpu\":");
-		cli_json_string(stdout, bench_cpu_name());
-		printf("}\n");
+		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
 		       "medians\n", base, patches, P, vk->props.deviceName, relief_vk_device_type_name(vk->props.deviceType),

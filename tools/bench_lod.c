@@ -404,15 +404,12 @@ int bench_lod(int argc, char **argv)
 			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,"
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%zu,"
-			       "\"runs\":%u,\"width\":%u,\"height\":%u,\"device\":",
+			       "\"runs\":%u,\"width\":%u,\"height\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
 			       res[i].camera_popping, (unsigned long long)res[i].pixels, (unsigned long long)res[i].excluded,
 			       per_run, runs, w, h);
-			cli_json_string(stdout, r.vk->props.deviceName);
-			printf(",\"cpu\":");
-			cli_json_string(stdout, bench_cpu_name());
-			printf("}\n");
+			bench_json_machine(r.vk->props.deviceName);
 		} else
 			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9.2f %10.3f %10.5f %10.4f %9llu\n",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,

@@ -4,6 +4,7 @@
 #include <time.h>
 
 #include "bench_util.h"
+#include "cli.h"
 #include "format.h"
 
 double bench_now(void)
@@ -58,4 +59,15 @@ uint32_t bench_decoded_patches(const struct relief_file *f)
 		n += !(r.flags & RELIEF_PATCH_EMPTY);
 	}
 	return n;
+}
+
+void bench_json_machine(const char *device)
+{
+	if (device) {
+		printf(",\"device\":");
+		cli_json_string(stdout, device);
+	}
+	printf(",\"cpu\":");
+	cli_json_string(stdout, bench_cpu_name());
+	printf("}\n");
 }

@@ -13,3 +13,6 @@ double bench_median(double *v, size_t n);
 uint32_t bench_decoded_patches(const struct relief_file *f);
 /* "model name" from /proc/cpuinfo, or "unknown CPU". */
 const char *bench_cpu_name(void);
+/* Ends a JSON record on stdout with the machine: ,"device":"..." (when device is not NULL),
+ * ,"cpu":"..." and the closing brace and newline. */
+void bench_json_machine(const char *device);
