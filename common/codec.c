@@ -48,20 +48,31 @@ static void refined_values(const struct relief_patch_geom *g, uint32_t k, unsign
 	}
 }
 
-/* Prediction of the sample at local (x, y) (not refined) from the refined values. */
-static inline int32_t predict(const struct relief_patch_geom *g, const int32_t *R, int x, int y)
+/* Where plane p's samples and their predictions are: in a block (E x E, storage index of
+ * local (x, y) is (y + 1) E + x + 1) its sample (u, v) sits at out0 + 2 v E + 2 u, and its
+ * prediction is the rounded mean of `taps` refined values from r = R + r0 + v Rw + u (the
+ * refined index of local even e is (e + 2) / 2): r[0] and r[t1] (2 taps), or r[0], r[1],
+ * r[Rw], r[Rw + 1] (4 taps). Plane layouts as in planes(). */
+struct plane_taps {
+	size_t r0, out0, t1;
+	uint32_t taps;
+};
+
+static struct plane_taps plane_taps(const struct relief_patch_geom *g, int p)
 {
-	/* Refined index of local even e is (e + 2) / 2. */
-	if ((y & 1) == 0) { /* H: between (x-1, y) and (x+1, y) */
-		const int32_t *r = R + (size_t)((y + 2) / 2) * g->R + (x + 1) / 2;
-		return (r[0] + r[1] + 1) >> 1;
-	}
-	if ((x & 1) == 0) { /* V: between (x, y-1) and (x, y+1) */
-		const int32_t *r = R + (size_t)((y + 1) / 2) * g->R + (x + 2) / 2;
-		return (r[0] + r[g->R] + 1) >> 1;
-	}
-	const int32_t *r = R + (size_t)((y + 1) / 2) * g->R + (x + 1) / 2; /* C */
-	return (r[0] + r[1] + r[g->R] + r[g->R + 1] + 2) >> 2;
+	const size_t E = g->E, Rw = g->R;
+	if (p == 0) /* H: x = 2u - 1, y = 2v; between refined (u, v + 1) and (u + 1, v + 1) */
+		return (struct plane_taps){ Rw, E, 1, 2 };
+	if (p == 1) /* V: x = 2u, y = 2v - 1; between refined (u + 1, v) and (u + 1, v + 1) */
+		return (struct plane_taps){ 1, 1, Rw, 2 };
+	/* C: x = 2u - 1, y = 2v - 1; the four refined values (u, v)..(u + 1, v + 1) */
+	return (struct plane_taps){ 0, 0, 0, 4 };
+}
+
+/* The one rounding rule of the bilinear prediction (the GPU decoder's too). */
+static inline int32_t plane_predict(const int32_t *r, const struct plane_taps *t, size_t Rw)
+{
+	return t->taps == 2 ? (r[0] + r[t->t1] + 1) >> 1 : (r[0] + r[1] + r[Rw] + r[Rw + 1] + 2) >> 2;
 }
 
 static int32_t *refined_scratch(const struct relief_patch_geom *g)
@@ -91,13 +102,15 @@ int relief_patch_analyse(const struct relief_patch_geom *g, uint32_t ratio, unsi
 		refined_values(g, ratio, quadrant, parent, labels, R);
 		struct plane pl[3];
 		planes(g, pl);
+		const size_t Rw = g->R;
 		size_t n = 0;
-		for (int p = 0; p < 3; p++)
+		for (int p = 0; p < 3; p++) {
+			struct plane_taps t = plane_taps(g, p);
 			for (uint32_t v = 0; v < pl[p].h; v++)
-				for (uint32_t u = 0; u < pl[p].w; u++) {
-					int x = pl[p].x0 + 2 * (int)u, y = pl[p].y0 + 2 * (int)v;
-					residuals[n++] = child[(size_t)(y + 1) * g->E + x + 1] - predict(g, R, x, y);
-				}
+				for (uint32_t u = 0; u < pl[p].w; u++)
+					residuals[n++] = child[t.out0 + 2 * (size_t)v * g->E + 2 * (size_t)u] -
+					                 plane_predict(R + t.r0 + v * Rw + u, &t, Rw);
+		}
 	}
 	free(R);
 	return ret;
@@ -122,22 +135,21 @@ static bool all_q_ok(const int32_t *v, size_t n)
 	return !(bad[0] | bad[1] | bad[2] | bad[3]);
 }
 
-/* One residual plane: q = prediction + d over w x h samples, the prediction being the
- * rounded mean of `taps` refined values (2: at R[0] and R[t1]; 4: R[0], R[1], R[Rw],
- * R[Rw + 1]). A branch-free loop per row: the arithmetic is predict()'s, specialised per
- * plane (the generic per-sample form cost 17 % of a Puget Sound decode). Errors (a residual
- * outside (-2^29, 2^29) or a value outside [-RELIEF_Q_MAX, RELIEF_Q_MAX]) are collected,
- * not branched on; the sum is done in 64 bits so that hostile residuals cannot overflow. */
+/* One residual plane: q = prediction + d over its w x h samples, one branch-free loop per
+ * row (a generic per-sample form, branching on parity, cost 17 % of a Puget Sound decode).
+ * Errors (a residual outside (-2^29, 2^29) or a value outside [-RELIEF_Q_MAX,
+ * RELIEF_Q_MAX]) are collected, not branched on; the sum is done in 64 bits so that hostile
+ * residuals cannot overflow (the parent is checked, so the prediction cannot). */
 static bool reconstruct_plane(const struct relief_patch_geom *g, const int32_t *R, const int32_t *d, int32_t *out,
-                              uint32_t w, uint32_t h, uint32_t taps, size_t t1)
+                              const struct plane *pl, const struct plane_taps *t)
 {
 	const size_t Rw = g->R;
 	bool bad = false;
-	for (uint32_t v = 0; v < h; v++, d += w, R += Rw, out += 2 * (size_t)g->E) {
-		for (uint32_t u = 0; u < w; u++) {
-			const int32_t *r = R + u;
-			int64_t pred = taps == 2 ? (r[0] + r[t1] + 1) >> 1 : (r[0] + r[1] + r[Rw] + r[Rw + 1] + 2) >> 2;
-			int64_t q = pred + d[u];
+	R += t->r0;
+	out += t->out0;
+	for (uint32_t v = 0; v < pl->h; v++, d += pl->w, R += Rw, out += 2 * (size_t)g->E) {
+		for (uint32_t u = 0; u < pl->w; u++) {
+			int64_t q = (int64_t)plane_predict(R + u, t, Rw) + d[u];
 			bad |= (d[u] <= -(1 << 29)) | (d[u] >= (1 << 29)) | (q < -RELIEF_Q_MAX) | (q > RELIEF_Q_MAX);
 			out[2 * (size_t)u] = (int32_t)q;
 		}
@@ -164,19 +176,14 @@ int relief_patch_reconstruct(const struct relief_patch_geom *g, uint32_t ratio, 
 			bad |= !q_ok(v);
 			out[(2 * j + 1) * E + 2 * i + 1] = v;
 		}
-	/* Plane layouts as in planes(); storage index of local (x, y) is (y + 1) E + x + 1 and
-	 * the refined index of local even e is (e + 2) / 2. */
 	struct plane pl[3];
 	planes(g, pl);
 	const int32_t *d = residuals;
-	/* H: x = 2u - 1, y = 2v; between refined (u, v + 1) and (u + 1, v + 1). */
-	bad |= reconstruct_plane(g, R + Rw, d, out + E, pl[0].w, pl[0].h, 2, 1);
-	d += (size_t)pl[0].w * pl[0].h;
-	/* V: x = 2u, y = 2v - 1; between refined (u + 1, v) and (u + 1, v + 1). */
-	bad |= reconstruct_plane(g, R + 1, d, out + 1, pl[1].w, pl[1].h, 2, Rw);
-	d += (size_t)pl[1].w * pl[1].h;
-	/* C: x = 2u - 1, y = 2v - 1; the four refined values (u, v)..(u + 1, v + 1). */
-	bad |= reconstruct_plane(g, R, d, out, pl[2].w, pl[2].h, 4, 0);
+	for (int p = 0; p < 3; p++) {
+		struct plane_taps t = plane_taps(g, p);
+		bad |= reconstruct_plane(g, R, d, out, &pl[p], &t);
+		d += (size_t)pl[p].w * pl[p].h;
+	}
 	free(R);
 	return bad ? -EBADMSG : 0;
 }
