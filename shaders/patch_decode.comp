@@ -22,7 +22,9 @@
 layout(local_size_x = 64) in;
 
 layout(binding = 0, r32i) uniform iimage2DArray heights;
-layout(std430, binding = 2) readonly buffer Staging { int data[]; } st;
+// The staging slots as texels: a CPU implementation loads texels for all lanes at once
+// but a storage buffer lane by lane (create_staging_view() in common/gpu/patch_gpu.c).
+layout(binding = 2, r32i) uniform readonly iimageBuffer staging;
 layout(std430, binding = 3) buffer Flags { uint flags[]; } fl;
 
 // One dispatch decodes a whole batch: workgroup z is the job (patch) index.
@@ -44,7 +46,13 @@ Job pc;
 
 const int Q_MAX = 1 << 26;
 
-void set_flag() { atomicOr(fl.flags[pc.flag], 1u); }
+// Set by any check that fails; written to flags[pc.flag] once at the end, since a CPU
+// implementation runs every atomic lane by lane, active or not.
+bool bad = false;
+
+void set_flag() { bad = true; }
+
+int staged(uint index) { return imageLoad(staging, int(index)).x; }
 
 // Refined value at even local (ex, ey) in [-2, P+1]: k * parent, plus the label inside.
 int refined(int ex, int ey)
@@ -56,7 +64,7 @@ int refined(int ex, int ey)
 		set_flag();
 	int v = pc.ratio * p;
 	if (ex >= 0 && ey >= 0 && ex < pc.P && ey < pc.P)
-		v += st.data[pc.slot + uint((ey >> 1) * L + (ex >> 1))];
+		v += staged(pc.slot + uint((ey >> 1) * L + (ex >> 1)));
 	return v;
 }
 
@@ -71,7 +79,7 @@ void put(int x, int y, int q)
 
 int residual(uint index)
 {
-	int d = st.data[index];
+	int d = staged(index);
 	if (d <= -(1 << 29) || d >= (1 << 29))
 		set_flag();
 	return d;
@@ -88,7 +96,7 @@ void copy_quad(int ex, int ey)
 		for (int dx = 0; dx < 2; dx++) {
 			int x = ex + dx, y = ey + dy;
 			if (x >= -1 && y >= -1 && x <= pc.P && y <= pc.P)
-				put(x, y, st.data[values + uint((y + 1) * E + x + 1)]);
+				put(x, y, staged(values + uint((y + 1) * E + x + 1)));
 		}
 }
 
@@ -137,4 +145,6 @@ void main()
 		}
 		g = patch_run_next(g, segs);
 	}
+	if (bad)
+		atomicOr(fl.flags[pc.flag], 1u);
 }

@@ -13,7 +13,7 @@ void main()
 	// No-data is a hole, never a made-up height: the validity of the nearest sample, per
 	// fragment (tessellated vertices can be far apart where the terrain is smooth).
 	ivec2 si = clamp(ivec2(in_s + 0.5), ivec2(0), ivec2(int(pc.P) - 1));
-	if (imageLoad(normals, ivec3(si, in_layer)).w < 0.0)
+	if (normal_load(si, in_layer).w < 0.0)
 		discard;
 	if ((pc.mode & 1u) != 0u) {
 		out_color = vec4(0.05, 0.05, 0.05, 1.0);

@@ -38,7 +38,7 @@ void main()
 		if ((rec & 7u) != 0u)
 			h = sealed_side_height(it, si, ex ? (si.x == 0 ? 2u : 3u) : (si.y == 0 ? 0u : 1u), rec);
 	}
-	out_normal = imageLoad(normals, ivec3(si, it.layer)).xyz;
+	out_normal = normal_load(si, it.layer).xyz;
 	out_s = vec2(si);
 	out_layer = it.layer;
 	out_height = h;

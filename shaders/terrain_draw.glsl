@@ -9,7 +9,10 @@ layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
 // was chosen for another camera (relief_draw_options.lod_view). pc.vp stays the LOD's.
 layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; };
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
-layout(binding = 10, rgba8_snorm) uniform readonly image2DArray normals;
+layout(binding = 10, r32ui) uniform readonly uimage2DArray normals; // packSnorm4x8, see patch_normals.comp
+
+// The normal (xyz) and validity (w: 1 valid, -1 no-data) of sample si of layer `layer`.
+vec4 normal_load(ivec2 si, int layer) { return unpackSnorm4x8(imageLoad(normals, ivec3(si, layer)).x); }
 layout(std430, binding = 11) readonly buffer Errors { float block_err[]; };
 
 layout(push_constant) uniform DrawPush {

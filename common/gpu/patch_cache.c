@@ -18,12 +18,13 @@
 /* ---- creation ---- */
 
 static const VkImageUsageFlags POOL_USAGE =
-	VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+	VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+	VK_IMAGE_USAGE_TRANSFER_DST_BIT;
 
 static uint64_t pool_bytes_for(struct relief_patch_cache *c, uint32_t n)
 {
 	VkDeviceSize h = relief_vk_image_bytes(c->vk, VK_FORMAT_R32_SINT, c->E, c->E, n, POOL_USAGE);
-	VkDeviceSize m = relief_vk_image_bytes(c->vk, VK_FORMAT_R8G8B8A8_SNORM, c->P, c->P, n, POOL_USAGE);
+	VkDeviceSize m = relief_vk_image_bytes(c->vk, VK_FORMAT_R32_UINT, c->P, c->P, n, POOL_USAGE);
 	if (!h || !m)
 		return UINT64_MAX;
 	return h + m + (uint64_t)n * c->errors_per_layer * sizeof(float);
@@ -97,13 +98,6 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 		drawable += !(r.flags & RELIEF_PATCH_EMPTY);
 	}
 
-	VkFormatProperties fp;
-	vkGetPhysicalDeviceFormatProperties(vk->phys, VK_FORMAT_R8G8B8A8_SNORM, &fp);
-	if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT)) {
-		relief_log(&c->log, RELIEF_LOG_ERROR, "patch cache: the device cannot write R8G8B8A8_SNORM storage images");
-		ret = -ENOTSUP;
-		goto fail;
-	}
 	uint32_t cap = vk->props.limits.maxImageArrayLayers;
 	if (cap > drawable)
 		cap = drawable;
@@ -118,13 +112,14 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	}
 	if ((ret = relief_vk_image_init(vk, &c->heights, VK_FORMAT_R32_SINT, c->E, c->E, n, VK_IMAGE_VIEW_TYPE_2D_ARRAY,
 	                                POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
-	    (ret = relief_vk_image_init(vk, &c->normals, VK_FORMAT_R8G8B8A8_SNORM, c->P, c->P, n,
+	    (ret = relief_vk_image_init(vk, &c->normals, VK_FORMAT_R32_UINT, c->P, c->P, n,
 	                                VK_IMAGE_VIEW_TYPE_2D_ARRAY, POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->errors_per_layer * sizeof(float),
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
 	                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->staging, (VkDeviceSize)c->o.staging_slots * c->slot_ints * 4,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true)) < 0 ||
+	                                 VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+	                                 true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->flags, sizeof(uint32_t) * c->o.staging_slots,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->layer_table, sizeof(int32_t) * c->count,

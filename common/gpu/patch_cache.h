@@ -10,7 +10,10 @@
  * waits: it only takes what the worker finished and what the GPU completed.
  *
  * Pools: heights R32_SINT, (P+2)^2 per layer, quantised (metres = 2 delta_l q), so that a
- * child refines its parent exactly; normals RGBA8_SNORM, P^2 per layer (xyz); block errors
+ * child refines its parent exactly; normals R32_UINT, P^2 per layer, each texel four snorm8
+ * (GLSL packSnorm4x8: x east, y north, z up, w validity; in memory the bytes of an
+ * R8G8B8A8_SNORM texel), stored packed because a CPU implementation (lavapipe) converts a
+ * four-channel store lane by lane but packs in SIMD (docs/benchmarks.md); block errors
  * float[blocks^2][4] per layer. Layer count: as many as the GPU memory budget holds (the
  * three pools' real allocation sizes never exceed it), at most maxImageArrayLayers and the
  * number of non-empty patches. All images stay in VK_IMAGE_LAYOUT_GENERAL.
@@ -68,7 +71,7 @@ struct relief_patch_cache_stats {
 /* The resources a renderer binds. Owned by the cache. */
 struct relief_patch_pool {
 	VkImageView heights;      /* 2D array, R32_SINT, (P+2)^2 */
-	VkImageView normals;      /* 2D array, R8G8B8A8_SNORM, P^2 */
+	VkImageView normals;      /* 2D array, R32_UINT (packed snorm8 x 4), P^2 */
 	VkBuffer block_errors;    /* float[layers][blocks^2][4], metres */
 	uint32_t layers;
 	/* int32[patch_count]: the layer of each resident patch, -1 otherwise; host-visible,

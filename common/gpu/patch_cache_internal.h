@@ -14,8 +14,9 @@
 
 #define MAX_BATCH 64
 #define IN_FLIGHT 3
-/* Items (quads or samples) per workgroup of the patch passes (shaders/patch_run.glsl). */
-#define RUN_ITEMS 1024u
+/* Items (segments of 8 quads, blocks of 4 x 8 samples) per workgroup of the patch passes
+ * (shaders/patch_run.glsl): four per lane. */
+#define RUN_ITEMS 256u
 
 /* Twin of `Job` in shaders/patch_decode.comp and patch_normals.comp (std430). */
 struct job_params {
@@ -61,6 +62,7 @@ struct relief_patch_cache {
 	struct relief_vk_image heights, normals;
 	struct relief_vk_buffer errors, staging, flags, layer_table, use_table;
 	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH], host-visible */
+	VkBufferView staging_view;    /* the staging buffer as R32_SINT texels (see patch_gpu.c) */
 	VkDescriptorSetLayout set_layout;
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;

@@ -8,13 +8,41 @@
 #include "patch_decode.comp.spv.h"
 #include "patch_normals.comp.spv.h"
 
+/* The staging buffer is read through an R32_SINT storage texel buffer, not as a storage
+ * buffer: a CPU implementation (lavapipe) loads texels for all SIMD lanes at once (a
+ * gather), but a storage buffer lane by lane in a scalar loop with a bounds check each,
+ * which made up most of the decode pass (docs/benchmarks.md). */
+static int create_staging_view(struct relief_patch_cache *c)
+{
+	struct relief_vk *vk = c->vk;
+	VkFormatProperties fp;
+	vkGetPhysicalDeviceFormatProperties(vk->phys, VK_FORMAT_R32_SINT, &fp);
+	uint64_t texels = c->staging.size / 4;
+	if (!(fp.bufferFeatures & VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT) ||
+	    texels > vk->props.limits.maxTexelBufferElements) {
+		relief_log(&c->log, RELIEF_LOG_ERROR,
+		           "patch cache: the device cannot read %llu R32_SINT texels from a storage texel buffer "
+		           "(maxTexelBufferElements %u); use fewer staging slots",
+		           (unsigned long long)texels, vk->props.limits.maxTexelBufferElements);
+		return -ENOTSUP;
+	}
+	VkBufferViewCreateInfo bi = {
+		.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO,
+		.buffer = c->staging.buffer,
+		.format = VK_FORMAT_R32_SINT,
+		.offset = 0,
+		.range = VK_WHOLE_SIZE,
+	};
+	return relief_vk_check(vk, vkCreateBufferView(vk->device, &bi, NULL, &c->staging_view), "vkCreateBufferView");
+}
+
 static int create_descriptors(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
 	VkDescriptorSetLayoutBinding b[5] = {
 		{ 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
-		{ 2, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 2, VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 	};
@@ -27,14 +55,15 @@ static int create_descriptors(struct relief_patch_cache *c)
 	                          "vkCreateDescriptorSetLayout");
 	if (ret < 0)
 		return ret;
-	VkDescriptorPoolSize sizes[2] = {
+	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 },
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 1 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
 		.maxSets = 1,
-		.poolSizeCount = 2,
+		.poolSizeCount = 3,
 		.pPoolSizes = sizes,
 	};
 	if ((ret = relief_vk_check(vk, vkCreateDescriptorPool(vk->device, &pi, NULL, &c->descriptor_pool),
@@ -50,13 +79,13 @@ static int create_descriptors(struct relief_patch_cache *c)
 		return ret;
 	VkDescriptorImageInfo hi = { VK_NULL_HANDLE, c->heights.view, VK_IMAGE_LAYOUT_GENERAL };
 	VkDescriptorImageInfo ni = { VK_NULL_HANDLE, c->normals.view, VK_IMAGE_LAYOUT_GENERAL };
-	VkDescriptorBufferInfo si = { c->staging.buffer, 0, VK_WHOLE_SIZE };
 	VkDescriptorBufferInfo fi = { c->flags.buffer, 0, VK_WHOLE_SIZE };
 	VkDescriptorBufferInfo ji = { c->jobs.buffer, 0, VK_WHOLE_SIZE };
 	VkWriteDescriptorSet w[5] = {
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 0, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &hi, NULL, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 1, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &ni, NULL, NULL },
-		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 2, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &si, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 2, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, NULL, NULL,
+		  &c->staging_view },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 3, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &fi, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 4, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &ji, NULL },
 	};
@@ -109,7 +138,7 @@ static int init_layouts(struct relief_patch_cache *c)
 		b[i] = (VkImageMemoryBarrier){
 			.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
 			.srcAccessMask = 0,
-			.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+			.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
 			.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
 			.newLayout = VK_IMAGE_LAYOUT_GENERAL,
 			.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
@@ -117,8 +146,17 @@ static int init_layouts(struct relief_patch_cache *c)
 			.image = images[i],
 			.subresourceRange = { VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS },
 		};
-	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, NULL,
-	                     0, NULL, 2, b);
+	vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, NULL, 0, NULL,
+	                     2, b);
+	/* Zero the pools: the memory is committed here rather than at each layer's first
+	 * decode (on lavapipe, page faults in the middle of the decode passes). */
+	const VkClearColorValue zero = { .uint32 = { 0, 0, 0, 0 } };
+	const VkImageSubresourceRange all = { VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS };
+	for (int i = 0; i < 2; i++)
+		vkCmdClearColorImage(cmd, images[i], VK_IMAGE_LAYOUT_GENERAL, &zero, 1, &all);
+	vkCmdFillBuffer(cmd, c->errors.buffer, 0, VK_WHOLE_SIZE, 0);
+	memory_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+	               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	*(struct job_params *)c->jobs.map = (struct job_params){ .mode = 2 };
 	uint32_t first = 0;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
@@ -164,7 +202,7 @@ static int create_batches(struct relief_patch_cache *c)
 int patch_gpu_init(struct relief_patch_cache *c)
 {
 	int ret;
-	if ((ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
+	if ((ret = create_staging_view(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
 		return ret;
 	return init_layouts(c);
 }
@@ -189,6 +227,8 @@ void patch_gpu_finish(struct relief_patch_cache *c)
 		vkDestroyDescriptorPool(vk->device, c->descriptor_pool, NULL);
 	if (c->set_layout)
 		vkDestroyDescriptorSetLayout(vk->device, c->set_layout, NULL);
+	if (c->staging_view)
+		vkDestroyBufferView(vk->device, c->staging_view, NULL);
 }
 
 void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)
@@ -268,11 +308,12 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	}
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
 	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
-	/* Workgroup x: runs of about RUN_ITEMS items, ((P + 3) / 2)^2 quads for decode and P^2
-	 * samples for normals; workgroup z: the job. */
+	/* Workgroup x: runs of about RUN_ITEMS items (shaders/patch_run.glsl): for decode a
+	 * segment of 8 quads of a row, ((P + 3) / 2 + 7) / 8 x (P + 3) / 2 of them; for normals
+	 * a block of 4 x 8 samples, (P + 3) / 4 x (P + 7) / 8 of them. Workgroup z: the job. */
 	const uint32_t quads = (c->P + 3) / 2;
-	const uint32_t runs_e = (quads * quads + RUN_ITEMS - 1) / RUN_ITEMS;
-	const uint32_t runs_p = (c->P * c->P + RUN_ITEMS - 1) / RUN_ITEMS;
+	const uint32_t runs_e = ((quads + 7) / 8 * quads + RUN_ITEMS - 1) / RUN_ITEMS;
+	const uint32_t runs_p = ((c->P + 3) / 4 * ((c->P + 7) / 8) + RUN_ITEMS - 1) / RUN_ITEMS;
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
 	vkCmdDispatch(cmd, runs_e, 1, b->n);
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,

@@ -155,7 +155,8 @@ static void test_bit_exact_puget(void **state) { check_bit_exact(DEM_PUGET, 129,
 /* Three entropy workers finish out of order: children wait for their parents' batches. */
 static void test_bit_exact_alps(void **state) { check_bit_exact(DEM_ALPS, 129, 0.5, 3); }
 static void test_bit_exact_lux(void **state) { check_bit_exact(DEM_LUX, 65, 0.25, 1); }
-/* The largest patch size: 17 workgroup runs per patch in the decode pass, 65 in normals. */
+/* The largest patch size: 9 workgroup runs per patch in each pass, the last normals block
+ * of each column one row high (257 = 64 x 4 + 1). */
 static void test_bit_exact_lux_257(void **state) { check_bit_exact(DEM_LUX, 257, 0.5, 2); }
 
 /* Every resident patch's parent is resident. */
