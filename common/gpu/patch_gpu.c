@@ -270,16 +270,17 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
 	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT);
 	uint32_t *flags = c->flags.map;
+	VkBufferCopy copies[MAX_BATCH]; /* the stored block errors, one region per patch */
 	for (uint32_t i = 0; i < b->n; i++) {
 		size_t slot_base = (size_t)b->jobs[i].slot * c->slot_ints;
-		VkBufferCopy copy = {
+		copies[i] = (VkBufferCopy){
 			.srcOffset = (slot_base + c->slot_ints - c->errors_per_layer) * 4,
 			.dstOffset = (VkDeviceSize)b->layers[i] * c->errors_per_layer * sizeof(float),
 			.size = c->errors_per_layer * sizeof(float),
 		};
-		vkCmdCopyBuffer(cmd, c->staging.buffer, c->errors.buffer, 1, &copy);
 		flags[b->jobs[i].slot] = 0;
 	}
+	vkCmdCopyBuffer(cmd, c->staging.buffer, c->errors.buffer, b->n, copies);
 	/* One record per job, read by both passes; each pass is one dispatch for the batch. */
 	uint32_t first = (uint32_t)(b - c->batches) * MAX_BATCH;
 	struct job_params *jp = (struct job_params *)c->jobs.map + first;
