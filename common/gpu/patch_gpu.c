@@ -202,7 +202,8 @@ static int create_batches(struct relief_patch_cache *c)
 int patch_gpu_init(struct relief_patch_cache *c)
 {
 	int ret;
-	if ((ret = create_staging_view(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
+	if ((ret = create_staging_view(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 ||
+	    (ret = create_batches(c)) < 0)
 		return ret;
 	return init_layouts(c);
 }
