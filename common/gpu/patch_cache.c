@@ -284,14 +284,16 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
 {
 	if (c->n_free_layers)
 		return (int32_t)c->free_layers[--c->n_free_layers];
-	/* Evict the least recently used patch that nothing depends on. Views on the GPU stamp
-	 * the use table with the frame they drew a patch in. */
+	/* Evict the least recently used resident patch that nothing depends on. Views on the
+	 * GPU stamp the use table with the frame they drew a patch in. A layer whose patch is
+	 * still being decoded (an earlier batch of this update, in flight) is not a candidate:
+	 * that patch has never been drawn and would look the oldest of all. */
 	const uint32_t *gpu_use = c->use_table.map;
 	int32_t best = -1;
 	uint64_t oldest = UINT64_MAX;
 	for (uint32_t i = 0; i < c->pool.layers; i++) {
 		int32_t id = c->owner[i];
-		if (id <= 0)
+		if (id <= 0 || c->state[id] != RELIEF_PATCH_RESIDENT)
 			continue;
 		uint64_t used = c->last_used[id] > gpu_use[id] ? c->last_used[id] : gpu_use[id];
 		if (c->children[id] || c->pins[id] || used + c->o.keep_frames >= frame)
@@ -486,6 +488,10 @@ void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_
 	s->bytes = c->pool_bytes;
 	s->bytes_per_layer = c->pool_bytes / c->pool.layers;
 	s->staging_bytes = c->staging.size + c->flags.size;
+	pthread_mutex_t *lock = (pthread_mutex_t *)&c->lock; /* the stats do not change c */
+	pthread_mutex_lock(lock);
+	s->waiting = c->n_ready + c->n_pending;
+	pthread_mutex_unlock(lock);
 }
 
 const struct relief_patch_pool *relief_patch_cache_pool(const struct relief_patch_cache *c)

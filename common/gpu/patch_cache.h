@@ -66,6 +66,7 @@ struct relief_patch_cache_stats {
 	uint64_t gpu_decode_ns;   /* of which heights: block error copies and the decode pass */
 	uint64_t gpu_normals_ns;  /* and normals: the normals pass */
 	uint64_t entropy_ns;      /* summed worker time in fetch + entropy decoding */
+	uint32_t waiting;         /* patches entropy-decoded, not yet taken into a batch */
 };
 
 /* The resources a renderer binds. Owned by the cache. */

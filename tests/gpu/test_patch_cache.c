@@ -159,16 +159,45 @@ static void test_bit_exact_lux(void **state) { check_bit_exact(DEM_LUX, 65, 0.25
  * of each column one row high (257 = 64 x 4 + 1). */
 static void test_bit_exact_lux_257(void **state) { check_bit_exact(DEM_LUX, 257, 0.5, 2); }
 
-/* Every resident patch's parent is resident. */
+/* Every resident patch's parent is resident, and no two resident patches share a layer. */
 static void assert_tree_consistent(struct relief_patch_cache *c, const struct relief_file *f)
 {
-	for (uint32_t id = 1; id < f->hdr.patch_count; id++) {
+	struct relief_patch_cache_stats s;
+	relief_patch_cache_stats(c, &s);
+	int32_t *owner = malloc(sizeof(int32_t) * s.layers);
+	for (uint32_t i = 0; i < s.layers; i++)
+		owner[i] = -1;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
 		if (relief_patch_cache_state(c, id) != RELIEF_PATCH_RESIDENT)
+			continue;
+		int layer = relief_patch_cache_layer(c, id);
+		assert_true(layer >= 0 && (uint32_t)layer < s.layers);
+		if (owner[layer] >= 0)
+			fail_msg("patches %d and %u both resident in layer %d", owner[layer], id, layer);
+		owner[layer] = (int32_t)id;
+		if (id == 0)
 			continue;
 		uint32_t l, px, py;
 		relief_patch_coords(&f->layout, id, &l, &px, &py);
 		assert_int_equal(relief_patch_cache_state(c, relief_patch_id(l - 1, px / 2, py / 2)), RELIEF_PATCH_RESIDENT);
 	}
+	free(owner);
+}
+
+/* Patch id's layer holds exactly what the CPU reference decodes. */
+static void assert_patch_exact(struct relief_patch_cache *c, const struct relief_file *f, uint32_t id)
+{
+	uint32_t l, px, py;
+	relief_patch_coords(&f->layout, id, &l, &px, &py);
+	const size_t EE = (size_t)f->layout.geom.E * f->layout.geom.E;
+	int32_t *blocks, *gpu = malloc(sizeof(int32_t) * EE);
+	assert_int_equal(relief_decode_level_blocks(f, l, 1, &blocks), 0);
+	int layer = relief_patch_cache_layer(c, id);
+	assert_true(layer >= 0);
+	assert_int_equal(relief_patch_cache_read_layer(c, (uint32_t)layer, gpu, NULL, NULL), 0);
+	assert_memory_equal(gpu, blocks + (id - relief_level_first_id(l)) * EE, sizeof(int32_t) * EE);
+	free(blocks);
+	free(gpu);
 }
 
 static void test_budget_and_eviction(void **state)
@@ -256,6 +285,47 @@ static void test_budget_and_eviction(void **state)
 	assert_int_equal(relief_patch_cache_state(c, 1), RELIEF_PATCH_RESIDENT);
 	assert_int_equal(relief_patch_cache_state(c, 2), RELIEF_PATCH_RESIDENT);
 	assert_tree_consistent(c, f);
+	relief_patch_cache_destroy(c);
+	terrain_close(&t);
+	gpu_test_assert_clean(vk);
+}
+
+/* A layer is never taken from a patch whose decode is in flight. With one patch per batch,
+ * one update fills two batches; the pool is full, so both take a layer from an old
+ * resident patch, and the second must not take the first one's: that patch has never been
+ * drawn, so it looks the least recently used of all. */
+static void test_eviction_spares_in_flight(void **state)
+{
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 2.0);
+	struct relief_file *f = t.f;
+	struct relief_patch_cache_options o = {
+		.budget_bytes = 64ull << 20, .max_layers = 3, .keep_frames = 1, .batch = 1,
+	};
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, &gpu_test_log, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	assert_int_equal(relief_patch_cache_request(c, 1, 0), 0);
+	assert_int_equal(relief_patch_cache_request(c, 2, 1), 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0); /* the pool is full: 0, 1, 2 */
+	assert_int_equal(relief_patch_cache_request(c, 3, 0), 0);
+	assert_int_equal(relief_patch_cache_request(c, 4, 1), 0);
+	struct relief_patch_cache_stats s;
+	for (int ms = 0; ms < 10000; ms++) { /* both decoded by the worker before one update */
+		relief_patch_cache_stats(c, &s);
+		if (s.waiting == 2)
+			break;
+		usleep(1000);
+	}
+	assert_int_equal(s.waiting, 2);
+	assert_int_equal(relief_patch_cache_update(c, 10), 0); /* two batches submitted */
+	assert_int_equal(relief_patch_cache_flush(c, 10), 0);
+	for (uint32_t id = 1; id <= 4; id++)
+		assert_int_equal(relief_patch_cache_state(c, id), id <= 2 ? RELIEF_PATCH_ABSENT : RELIEF_PATCH_RESIDENT);
+	assert_tree_consistent(c, f);
+	assert_patch_exact(c, f, 3);
+	assert_patch_exact(c, f, 4);
 	relief_patch_cache_destroy(c);
 	terrain_close(&t);
 	gpu_test_assert_clean(vk);
@@ -414,6 +484,7 @@ int main(void)
 		cmocka_unit_test(test_bit_exact_lux),
 		cmocka_unit_test(test_bit_exact_lux_257),
 		cmocka_unit_test(test_budget_and_eviction),
+		cmocka_unit_test(test_eviction_spares_in_flight),
 		cmocka_unit_test(test_priority_and_dedup),
 		cmocka_unit_test(test_corrupt_patch),
 		cmocka_unit_test(test_corrupt_patch_subtree),
