@@ -338,12 +338,34 @@ static void release_slot(struct relief_patch_cache *c, uint32_t slot)
 
 /* ---- batches ---- */
 
+/* The layer of a patch in a batch that is in flight, or -1. */
+static int32_t in_flight_layer(const struct relief_patch_cache *c, uint32_t id)
+{
+	for (int i = 0; i < IN_FLIGHT; i++) {
+		const struct batch *b = &c->batches[i];
+		for (uint32_t k = 0; b->busy && k < b->n; k++)
+			if (b->jobs[k].id == id)
+				return (int32_t)b->layers[k];
+	}
+	return -1;
+}
+
+/* Batches retire in submission order, so a parent decoded in an earlier batch is resident
+ * or bad by the time its child's batch retires. */
 static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame, int *made)
 {
 	const uint32_t *flags = c->flags.map;
 	for (uint32_t i = 0; i < b->n; i++) {
 		uint32_t id = b->jobs[i].id, layer = b->layers[i];
-		if (flags[b->jobs[i].slot]) {
+		uint32_t parent = id ? parent_of(c, id) : 0;
+		if (id != 0 && c->state[parent] != RELIEF_PATCH_RESIDENT) {
+			/* Decoded from a parent that turned out bad in an earlier batch: not this
+			 * patch's fault, and not usable; it may be requested again. */
+			c->owner[layer] = -1;
+			c->free_layers[c->n_free_layers++] = layer;
+			c->state[id] = RELIEF_PATCH_ABSENT;
+			c->pins[parent]--;
+		} else if (flags[b->jobs[i].slot]) {
 			c->owner[layer] = -1;
 			c->free_layers[c->n_free_layers++] = layer;
 			mark_bad(c, id, -EBADMSG);
@@ -353,7 +375,6 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 			if (c->last_used[id] < frame)
 				c->last_used[id] = frame;
 			if (id != 0) {
-				uint32_t parent = parent_of(c, id);
 				c->children[parent]++;
 				c->pins[parent]--;
 			}
@@ -370,10 +391,14 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 {
 	int made = 0, ret = 0;
-	for (int i = 0; i < IN_FLIGHT; i++) {
-		struct batch *b = &c->batches[i];
-		if (b->busy && vkGetFenceStatus(c->vk->device, b->fence) == VK_SUCCESS)
-			retire(c, b, frame, &made);
+	for (;;) { /* the finished batches, oldest first */
+		struct batch *oldest = NULL;
+		for (int i = 0; i < IN_FLIGHT; i++)
+			if (c->batches[i].busy && (!oldest || c->batches[i].seq < oldest->seq))
+				oldest = &c->batches[i];
+		if (!oldest || vkGetFenceStatus(c->vk->device, oldest->fence) != VK_SUCCESS)
+			break;
+		retire(c, oldest, frame, &made);
 	}
 	/* Take what the worker finished. */
 	pthread_mutex_lock(&c->lock);
@@ -393,8 +418,11 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 			c->pending[c->n_pending++] = ready[i];
 		}
 	}
-	/* Fill free batches with pending patches whose parent is resident (the decode pass
-	 * reads it) and that get a layer; the others keep their order in `pending`. */
+	/* Fill free batches with pending patches whose parent is resident or in a batch in
+	 * flight (the decode pass reads it; the queue runs batches in order and each begins
+	 * with a barrier) and that get a layer; the others keep their order in `pending`. A
+	 * batch filled here is in flight for the next, so one update can submit a chain of
+	 * levels, one per free batch. */
 	bool no_layer = false;
 	for (int i = 0; i < IN_FLIGHT && c->n_pending && !no_layer; i++) {
 		struct batch *b = &c->batches[i];
@@ -413,8 +441,10 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 				release_slot(c, j.slot);
 				continue;
 			}
-			int32_t layer = -1;
-			if (ps == RELIEF_PATCH_RESIDENT && b->n < c->o.batch && !no_layer)
+			int32_t layer = -1, parent_layer = 0;
+			if (j.id)
+				parent_layer = ps == RELIEF_PATCH_RESIDENT ? c->layer[parent] : in_flight_layer(c, parent);
+			if (parent_layer >= 0 && b->n < c->o.batch && !no_layer)
 				no_layer = (layer = alloc_layer(c, frame)) < 0;
 			if (layer < 0) {
 				c->pending[kept++] = j;
@@ -422,6 +452,7 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 			}
 			b->jobs[b->n] = j;
 			b->layers[b->n] = (uint32_t)layer;
+			b->parent_layers[b->n] = parent_layer;
 			c->owner[layer] = (int32_t)j.id;
 			b->n++;
 		}

@@ -18,12 +18,15 @@
  * three pools' real allocation sizes never exceed it), at most maxImageArrayLayers and the
  * number of non-empty patches. All images stay in VK_IMAGE_LAYOUT_GENERAL.
  *
- * Residency rules: a patch is decoded only from a resident parent, which stays pinned until
- * its child is resident; a patch with resident children is never evicted; the root is never
- * evicted. Eviction takes the least recently used patch that no view touched in the last
- * keep_frames frames. A patch whose stream fails its CRC (or whose file lost it, or whose
- * values are out of range) is marked bad, logged once, and never drawn: its parent keeps
- * serving that area.
+ * Residency rules: a patch is decoded from its parent's layer once the parent is resident or
+ * in a batch already submitted (the queue runs batches in order, so one update can submit a
+ * chain of levels, one per free batch; batches retire in submission order, and a child
+ * whose parent turned out corrupt is dropped, not made resident); the parent stays pinned
+ * until its child is resident; a patch with resident children is never evicted, nor one
+ * still being decoded; the root is never evicted. Eviction takes the least recently used
+ * resident patch that no view touched in the last keep_frames frames. A patch whose stream
+ * fails its CRC (or whose file lost it, or whose values are out of range) is marked bad,
+ * logged once, and never drawn: its parent keeps serving that area.
  *
  * Threading: all functions are for the thread that owns the Vulkan queue, except that the
  * worker runs inside. The file must outlive the cache. */

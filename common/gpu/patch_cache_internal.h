@@ -41,11 +41,13 @@ struct job {
 
 struct batch {
 	bool busy;
+	uint64_t seq; /* submission order: batches retire in it */
 	VkCommandBuffer cmd;
 	VkFence fence;
 	uint32_t n;
 	struct job jobs[MAX_BATCH];
 	uint32_t layers[MAX_BATCH];
+	int32_t parent_layers[MAX_BATCH]; /* resident, or in an earlier batch still in flight */
 };
 
 struct relief_patch_cache {
@@ -71,6 +73,7 @@ struct relief_patch_cache {
 	VkCommandPool cmd_pool;
 	VkQueryPool timer;
 	struct batch batches[IN_FLIGHT];
+	uint64_t next_seq;
 	struct relief_patch_pool pool;
 	uint64_t pool_bytes;
 

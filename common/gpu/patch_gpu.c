@@ -293,7 +293,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 		relief_file_record(c->file, id, &rec);
 		jp[i] = (struct job_params){
 			.layer = (int32_t)b->layers[i],
-			.parent_layer = id ? c->layer[parent_of(c, id)] : 0,
+			.parent_layer = b->parent_layers[i],
 			.quadrant = (int32_t)((px & 1) | ((py & 1) << 1)),
 			.ratio = (int32_t)lay->ratio,
 			.slot = (uint32_t)(b->jobs[i].slot * c->slot_ints),
@@ -339,6 +339,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	if ((ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &si, b->fence), "vkQueueSubmit")) < 0)
 		return ret;
 	b->busy = true;
+	b->seq = c->next_seq++;
 	c->stats.batches++;
 	return 0;
 }

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "../data_load.h"
+#include "crc32c.h"
 #include "decode.h"
 #include "format.h"
 #include "gpu_test.h"
@@ -438,6 +439,110 @@ static void test_corrupt_patch(void **state) { check_corrupt_patch(2, 1, 2); }
 /* two levels below: the children are dropped for the bad victim, the grandchildren for them */
 static void test_corrupt_patch_subtree(void **state) { check_corrupt_patch(1, 0, 1); }
 
+/* Rewrites patch id's stream so that it decodes (its symbols are valid) to a value beyond
+ * the codec's range: its labels, its residuals all 0 but one of 2^27. Signed again (the
+ * stream's, the index's and the header's CRCs), so that only reconstruction can tell;
+ * reopens t->f. */
+static void poison_stream(struct terrain *t, uint32_t id)
+{
+	const struct relief_patch_geom *g = &t->f->layout.geom;
+	struct relief_window win;
+	relief_file_window(t->f, id, &win);
+	uint8_t *stream = malloc(t->f->max_stream), *out;
+	int8_t *labels = malloc(g->n_labels);
+	int32_t *residuals = calloc(g->n_residuals, sizeof(int32_t));
+	size_t size, out_size;
+	assert_int_equal(relief_file_read_stream(t->f, id, stream, &size), 0);
+	assert_int_equal(relief_patch_decode_symbols(g, id == 0, &win, stream, size, labels, residuals), 0);
+	memset(residuals, 0, sizeof(int32_t) * g->n_residuals);
+	residuals[g->n_residuals / 2] = 1 << 27; /* a centre sample inside the patch */
+	assert_int_equal(relief_patch_encode(g, id == 0, &win, labels, residuals, &out, &out_size), 0);
+
+	struct relief_header h;
+	struct relief_layout lay;
+	char err[256];
+	assert_int_equal(relief_header_parse(t->img, t->size, &h, &lay, err, sizeof(err)), 0);
+	uint8_t *rec = t->img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE;
+	struct relief_patch_record r;
+	relief_record_read(rec, &r);
+	assert_true(out_size <= r.size); /* fits where the old stream was */
+	memcpy(t->img + h.data_offset + r.offset, out, out_size);
+	r.size = (uint32_t)out_size;
+	r.crc = relief_crc32c(0, out, out_size);
+	relief_record_write(&r, rec);
+	h.index_crc = relief_crc32c(0, t->img + h.index_offset, (uint64_t)h.patch_count * RELIEF_INDEX_RECORD_SIZE);
+	relief_header_write(&h, t->img);
+	relief_file_close(t->f);
+	assert_int_equal(relief_file_open_memory(t->img, t->size, &t->f, err, sizeof(err)), 0);
+	free(stream);
+	free(out);
+	free(labels);
+	free(residuals);
+}
+
+/* Levels decode in a chain within one update (a child's batch follows its parent's, in
+ * flight), and a parent that the GPU finds corrupt takes its children, decoded from it in
+ * the meantime, with it. The victim, a level-1 patch of Puget Sound, has a valid stream
+ * whose values leave the codec's range (poison_stream()), so the worker passes it and only
+ * the decode pass's range checks catch it. */
+static void test_corrupt_parent_in_flight(void **state)
+{
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 1.0);
+	const uint32_t victim = relief_patch_id(1, 0, 1);
+	poison_stream(&t, victim);
+	struct relief_decoder dec; /* the worker's stage passes, the CPU reference does not */
+	assert_int_equal(relief_decoder_init(&dec, t.f), 0);
+	assert_int_equal(relief_decoder_symbols(&dec, victim), 0);
+	relief_decoder_finish(&dec);
+	int32_t *blocks = NULL;
+	assert_int_equal(relief_decode_level_blocks(t.f, 1, 1, &blocks), -EBADMSG);
+	free(blocks);
+	struct relief_file *f = t.f;
+	struct relief_logger counter = { count_log, NULL };
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .staging_slots = 128 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, f, &o, &counter, &c), 0);
+	logged_errors = 0;
+	for (uint32_t id = 0; id < f->hdr.patch_count; id++)
+		assert_int_equal(relief_patch_cache_request(c, id, (float)id), 0);
+	struct relief_patch_cache_stats s;
+	for (int ms = 0; ms < 10000; ms++) { /* every stream decoded before the first update */
+		relief_patch_cache_stats(c, &s);
+		if (s.waiting == f->hdr.patch_count)
+			break;
+		usleep(1000);
+	}
+	assert_int_equal(s.waiting, f->hdr.patch_count);
+	assert_int_equal(relief_patch_cache_update(c, 1), 0);
+	relief_patch_cache_stats(c, &s);
+	assert_int_equal(s.batches, 3); /* root, level 1, level 2: one per free batch */
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	assert_int_equal(relief_patch_cache_state(c, victim), RELIEF_PATCH_BAD);
+	assert_int_equal(logged_errors, 1); /* the victim only: its children are not corrupt */
+	expect_bad_message("(memory image)", victim);
+	uint32_t below = 0;
+	for (uint32_t id = 1; id < f->hdr.patch_count; id++) {
+		uint32_t l, px, py;
+		relief_patch_coords(&f->layout, id, &l, &px, &py);
+		if (l > 1 && px >> (l - 1) == 0 && py >> (l - 1) == 1) {
+			below++;
+			assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_ABSENT);
+			assert_int_equal(relief_patch_cache_request(c, id, 0), -EIO);
+		} else if (id != victim) {
+			assert_int_equal(relief_patch_cache_state(c, id), RELIEF_PATCH_RESIDENT);
+		}
+	}
+	assert_int_equal(below, 4 + 16);
+	assert_tree_consistent(c, f);
+	relief_patch_cache_stats(c, &s);
+	assert_int_equal(s.bad, 1);
+	assert_int_equal(s.decoded, f->hdr.patch_count - 1 - below);
+	relief_patch_cache_destroy(c);
+	terrain_close(&t);
+	gpu_test_assert_clean(vk);
+}
+
 /* The file shrinks under a running cache: the lost patches go bad, nothing crashes. */
 static void test_truncated_at_run_time(void **state)
 {
@@ -488,6 +593,7 @@ int main(void)
 		cmocka_unit_test(test_priority_and_dedup),
 		cmocka_unit_test(test_corrupt_patch),
 		cmocka_unit_test(test_corrupt_patch_subtree),
+		cmocka_unit_test(test_corrupt_parent_in_flight),
 		cmocka_unit_test(test_truncated_at_run_time),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
