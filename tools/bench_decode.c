@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "bench.h"
 #include "bench_util.h"
@@ -44,6 +45,57 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 		ret = relief_patch_cache_flush(c, 1);
 	*wall = bench_now() - t;
 	relief_patch_cache_stats(c, st);
+	relief_patch_cache_destroy(c);
+	return ret < 0 ? ret : 0;
+}
+
+/* Descent latency: the chain from the root to a finest-level patch (the one nearest the
+ * centre that is not empty) requested at once, every stream entropy-decoded first; then
+ * one update per "frame", the device idle between them, until the finest patch is
+ * resident. Counts the updates (a batch's patches become resident at the update after
+ * it completes). */
+static int descent_run(struct relief_vk *vk, struct relief_file *f, uint32_t *updates)
+{
+	const uint32_t levels = f->hdr.levels, side = 1u << (levels - 1);
+	uint32_t target = UINT32_MAX;
+	uint64_t best = UINT64_MAX;
+	for (uint32_t y = 0; y < side; y++)
+		for (uint32_t x = 0; x < side; x++) {
+			struct relief_patch_record rec;
+			uint32_t id = relief_patch_id(levels - 1, x, y);
+			relief_file_record(f, id, &rec);
+			int64_t dx = 2 * (int64_t)x + 1 - side, dy = 2 * (int64_t)y + 1 - side;
+			if (!(rec.flags & RELIEF_PATCH_EMPTY) && (uint64_t)(dx * dx + dy * dy) < best) {
+				best = (uint64_t)(dx * dx + dy * dy);
+				target = id;
+			}
+		}
+	if (target == UINT32_MAX)
+		return -ENOENT;
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20 };
+	struct relief_patch_cache *c;
+	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
+	if (ret < 0)
+		return ret;
+	uint32_t l, px, py;
+	relief_patch_coords(&f->layout, target, &l, &px, &py);
+	for (uint32_t k = 0; k < levels && ret >= 0; k++)
+		ret = relief_patch_cache_request(c, relief_patch_id(k, px >> (l - k), py >> (l - k)), (float)k);
+	struct relief_patch_cache_stats st = { 0 };
+	for (int ms = 0; ret >= 0 && ms < 10000 && st.waiting < levels; ms++) {
+		relief_patch_cache_stats(c, &st);
+		if (st.waiting < levels)
+			nanosleep(&(struct timespec){ 0, 1000000 }, NULL);
+	}
+	*updates = 0;
+	while (ret >= 0 && relief_patch_cache_state(c, target) != RELIEF_PATCH_RESIDENT) {
+		if (++*updates > 4 * levels) {
+			ret = -ETIMEDOUT;
+			break;
+		}
+		ret = relief_patch_cache_update(c, *updates);
+		vkDeviceWaitIdle(vk->device);
+	}
 	relief_patch_cache_destroy(c);
 	return ret < 0 ? ret : 0;
 }
@@ -80,7 +132,8 @@ int bench_decode(int argc, char **argv)
 			       "GPU decoding through the patch cache against the CPU reference decoder on the same\n"
 			       "patches: MSamples/s (decoded patch samples), the CPU entropy stage alone, GPU time\n"
 			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3);\n"
-			       "--workers: the cache's entropy-decoding threads (default 1).\n");
+			       "--workers: the cache's entropy-decoding threads (default 1). Also the descent\n"
+			       "latency: updates (one per frame) until a root-to-finest chain is resident.\n");
 			return 0;
 		case ':':
 		default:
@@ -136,6 +189,9 @@ int bench_decode(int argc, char **argv)
 		gpu_nrm[i] = st.gpu_normals_ns * 1e-9;
 		worker[i] = st.entropy_ns * 1e-9;
 	}
+	uint32_t descent = 0;
+	if ((ret = descent_run(vk, f, &descent)) < 0)
+		goto fail;
 	double c = bench_median(cpu, runs), e = bench_median(ent, runs), g = bench_median(gpu, runs);
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
 	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs);
@@ -147,10 +203,10 @@ int bench_decode(int argc, char **argv)
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
 		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
 		       "\"gpu_normals_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
-		       "\"workers\":%u,\"runs\":%u",
+		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, gd * 1e3, gn * 1e3,
-		       w * 1e3, (unsigned long long)st.batches, workers, runs);
+		       w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs);
 		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
@@ -166,6 +222,7 @@ int bench_decode(int argc, char **argv)
 		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, w * 1e3);
 		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors)\n",
 		       (unsigned long long)st.bytes_per_layer);
+		printf("  descent: root to finest patch (%u levels) resident after %u updates\n", f->hdr.levels, descent);
 	}
 	status = 0;
 	goto out;

@@ -114,6 +114,9 @@ expect_text reliefd-terrain-missing-named "none.relief"
 vkcheck bench-decode 0 "$relief" bench decode "$tmp/lux.relief" --runs 1 --json
 expect_text bench-decode-fields '"file":"lux.relief","patches":'
 expect_text bench-decode-ratio '"ratio_gpu_over_cpu":'
+# two levels: both submitted by the first update (the child's batch follows its parent's
+# in flight), resident at the second
+expect_text bench-decode-descent '"descent_updates":2,"levels":2,'
 expect_text bench-decode-device '"device":"'
 expect_text bench-decode-cpu '","cpu":"'
 # relief snap: a real frame, its depth file, and refused cameras
