@@ -359,8 +359,9 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 		uint32_t id = b->jobs[i].id, layer = b->layers[i];
 		uint32_t parent = id ? parent_of(c, id) : 0;
 		if (id != 0 && c->state[parent] != RELIEF_PATCH_RESIDENT) {
-			/* Decoded from a parent that turned out bad in an earlier batch: not this
-			 * patch's fault, and not usable; it may be requested again. */
+			/* Decoded from a parent that turned out bad (or was dropped in turn) in an
+			 * earlier batch: not this patch's fault, and not usable; it may be requested
+			 * again. */
 			c->owner[layer] = -1;
 			c->free_layers[c->n_free_layers++] = layer;
 			c->state[id] = RELIEF_PATCH_ABSENT;

@@ -21,8 +21,8 @@ static int create_staging_view(struct relief_patch_cache *c)
 	if (!(fp.bufferFeatures & VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT) ||
 	    texels > vk->props.limits.maxTexelBufferElements) {
 		relief_log(&c->log, RELIEF_LOG_ERROR,
-		           "patch cache: the device cannot read %llu R32_SINT texels from a storage texel buffer "
-		           "(maxTexelBufferElements %u); use fewer staging slots",
+		           "patch cache: the device cannot read the staging buffer's %llu R32_SINT texels as a "
+		           "storage texel buffer (maxTexelBufferElements %u)",
 		           (unsigned long long)texels, vk->props.limits.maxTexelBufferElements);
 		return -ENOTSUP;
 	}
