@@ -358,18 +358,18 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 	for (uint32_t i = 0; i < b->n; i++) {
 		uint32_t id = b->jobs[i].id, layer = b->layers[i];
 		uint32_t parent = id ? parent_of(c, id) : 0;
-		if (id != 0 && c->state[parent] != RELIEF_PATCH_RESIDENT) {
-			/* Decoded from a parent that turned out bad (or was dropped in turn) in an
-			 * earlier batch: not this patch's fault, and not usable; it may be requested
-			 * again. */
+		/* Decoded from a parent that turned out bad (or was dropped in turn) in an earlier
+		 * batch: not this patch's fault, and not usable; it may be requested again. */
+		bool orphan = id != 0 && c->state[parent] != RELIEF_PATCH_RESIDENT;
+		if (orphan || flags[b->jobs[i].slot]) {
 			c->owner[layer] = -1;
 			c->free_layers[c->n_free_layers++] = layer;
-			c->state[id] = RELIEF_PATCH_ABSENT;
-			c->pins[parent]--;
-		} else if (flags[b->jobs[i].slot]) {
-			c->owner[layer] = -1;
-			c->free_layers[c->n_free_layers++] = layer;
-			mark_bad(c, id, -EBADMSG);
+			if (orphan) {
+				c->state[id] = RELIEF_PATCH_ABSENT;
+				c->pins[parent]--;
+			} else {
+				mark_bad(c, id, -EBADMSG);
+			}
 		} else {
 			c->state[id] = RELIEF_PATCH_RESIDENT;
 			set_layer(c, id, (int32_t)layer);

@@ -291,6 +291,20 @@ static void test_budget_and_eviction(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Waits (up to 10 s) until the workers have entropy-decoded n patches that no update has
+ * taken yet, so that the next update sees them all. */
+static void wait_for_symbols(struct relief_patch_cache *c, uint32_t n)
+{
+	struct relief_patch_cache_stats s;
+	for (int ms = 0; ms < 10000; ms++) {
+		relief_patch_cache_stats(c, &s);
+		if (s.waiting == n)
+			break;
+		usleep(1000);
+	}
+	assert_int_equal(s.waiting, n);
+}
+
 /* A layer is never taken from a patch whose decode is in flight. With one patch per batch,
  * one update fills two batches; the pool is full, so both take a layer from an old
  * resident patch, and the second must not take the first one's: that patch has never been
@@ -312,14 +326,7 @@ static void test_eviction_spares_in_flight(void **state)
 	assert_int_equal(relief_patch_cache_flush(c, 1), 0); /* the pool is full: 0, 1, 2 */
 	assert_int_equal(relief_patch_cache_request(c, 3, 0), 0);
 	assert_int_equal(relief_patch_cache_request(c, 4, 1), 0);
-	struct relief_patch_cache_stats s;
-	for (int ms = 0; ms < 10000; ms++) { /* both decoded by the worker before one update */
-		relief_patch_cache_stats(c, &s);
-		if (s.waiting == 2)
-			break;
-		usleep(1000);
-	}
-	assert_int_equal(s.waiting, 2);
+	wait_for_symbols(c, 2); /* both decoded by the worker before one update */
 	assert_int_equal(relief_patch_cache_update(c, 10), 0); /* two batches submitted */
 	assert_int_equal(relief_patch_cache_flush(c, 10), 0);
 	for (uint32_t id = 1; id <= 4; id++)
@@ -506,15 +513,9 @@ static void test_corrupt_parent_in_flight(void **state)
 	logged_errors = 0;
 	for (uint32_t id = 0; id < f->hdr.patch_count; id++)
 		assert_int_equal(relief_patch_cache_request(c, id, (float)id), 0);
-	struct relief_patch_cache_stats s;
-	for (int ms = 0; ms < 10000; ms++) { /* every stream decoded before the first update */
-		relief_patch_cache_stats(c, &s);
-		if (s.waiting == f->hdr.patch_count)
-			break;
-		usleep(1000);
-	}
-	assert_int_equal(s.waiting, f->hdr.patch_count);
+	wait_for_symbols(c, f->hdr.patch_count); /* every stream decoded before the first update */
 	assert_int_equal(relief_patch_cache_update(c, 1), 0);
+	struct relief_patch_cache_stats s;
 	relief_patch_cache_stats(c, &s);
 	assert_int_equal(s.batches, 3); /* root, level 1, level 2: one per free batch */
 	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
