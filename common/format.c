@@ -471,8 +471,18 @@ void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *e
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
 	const uint8_t *p = f->meta + f->hdr.block_errors_offset + (uint64_t)id * n;
 	const double unit = f->hdr.tolerance / 64.0;
-	for (size_t i = 0; i < n; i++)
-		eps[i] = relief_block_error_decode(p[i], unit);
+	/* Before version 4 a block's error was measured against its patch's own surface, so the
+	 * bound for the block is that plus Err(P) (the paper's sum), rounded up. */
+	double err = 0.0;
+	if (f->hdr.version < 4) {
+		struct relief_patch_record r;
+		relief_file_record(f, id, &r);
+		err = r.error;
+	}
+	for (size_t i = 0; i < n; i++) {
+		float e = relief_block_error_decode(p[i], unit);
+		eps[i] = err > 0.0 && isfinite(e) ? relief_float_up((double)e + err) : e;
+	}
 }
 
 void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_window *win)

@@ -23,8 +23,9 @@
 
 #define RELIEF_MAGIC "RELIEF\x1a\n"
 /* 2: residual contexts from classes (docs/codec.md); 3: streams skip the padding beyond
- * the valid extent (relief_patch_window()). Version 2 files are still read. */
-#define RELIEF_FORMAT_VERSION 3u
+ * the valid extent (relief_patch_window()); 4: block errors measured against the finest
+ * decoded surface (patch_error.h). Versions 2 and 3 are still read. */
+#define RELIEF_FORMAT_VERSION 4u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 #define RELIEF_INDEX_RECORD_SIZE 40u
@@ -105,7 +106,10 @@ void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_
 /* Reads patch id's stream into buf (at least max_stream bytes) and checks its CRC:
  * -EBADMSG on mismatch, -EIO if the file no longer holds it, -ENOENT for an empty patch. */
 int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size);
-/* Decoded block errors (upper bounds, metres; +infinity means "never simplify"). */
+/* Decoded block errors: for each block and d = 1..4, an upper bound in metres on the
+ * distance of the block drawn at level d from the finest decoded surface (versions 2 and 3:
+ * the stored value plus Err(P), the paper's sum, a bound against the original samples);
+ * +infinity means "never simplify". */
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps);
 /* The samples patch id's stream codes: relief_patch_window() from version 3 on, the whole
  * patch in version 2. */

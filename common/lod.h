@@ -72,10 +72,11 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 /* A patch's screen error is Err(P) * kappa / (distance from the camera to its box), infinite
  * inside the box. The coarse selection takes patches whose screen error is within this
  * share of tau (tau_c); the
- * rest is left to the tessellator, whose block errors include Err(P). With the whole of tau
- * (the paper), coarse patches spend it all on Err(P) and their blocks can rarely simplify:
- * measured on Puget Sound, a half share draws a third fewer triangles at the same measured
- * error (docs/benchmarks.md). */
+ * rest is left to the tessellator. A patch's own samples lie up to Err(P) from the finest
+ * surface, so with the whole of tau (the paper) its blocks can rarely simplify: measured on
+ * Puget Sound, a half share draws fewer triangles at the same measured error (a third
+ * fewer when block errors added Err(P); 9 % fewer at tau = 1 since they are measured
+ * against the finest surface, docs/lod.md). */
 #define RELIEF_LOD_COARSE_SHARE 0.5
 
 /* Hysteresis: a patch splits when its screen error exceeds tau_c, and stays split until it

@@ -45,6 +45,7 @@ struct packer {
 	struct relief_qgrid q[RELIEF_MAX_LEVELS];
 	uint32_t level; /* for the per-level row jobs */
 	struct relief_original orig;
+	struct relief_finest finest; /* what block errors are measured against */
 
 	/* per patch results */
 	struct relief_patch_record *rec;
@@ -208,7 +209,9 @@ static int encode_patch(void *ctx, size_t id)
 	r->height_min = float_down(hmin);
 	r->height_max = relief_float_up(hmax);
 	r->error = relief_float_up(err);
-	relief_block_errors(&p->lay, heights, p->eps + id * relief_block_errors_per_patch(P));
+	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest,
+	                               p->eps + id * relief_block_errors_per_patch(P))) < 0)
+		goto out;
 
 	/* Validity mask at this level's samples. */
 	uint8_t *mask = malloc((size_t)P * P);
@@ -418,6 +421,7 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		}
 		measure_level_error(p, l);
 	}
+	p->finest = (struct relief_finest){ &p->q[p->lay.levels - 1], 2.0 * p->lay.delta[p->lay.levels - 1], &p->orig };
 	if ((ret = relief_parallel_for(n, opts->threads, encode_patch, p)) < 0)
 		goto out;
 	st.levels = p->lay.levels;

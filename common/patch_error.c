@@ -1,4 +1,8 @@
+#include <errno.h>
 #include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "patch_error.h"
 
@@ -39,49 +43,81 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 	return worst;
 }
 
-/* Coarse (step s) triangulated value at fine sample offset (i, j) inside the block whose
- * top-left sample is b, at fractional fine offsets (fu, fv) within the fine cell. */
-static double coarse_value(const double *b, uint32_t P, uint32_t s, uint32_t i, uint32_t j, double fu, double fv,
-                           int diag)
+/* The block at level d: triangulated on every s-th patch sample, each patch cell `step`
+ * finest cells wide. Its value at finest offset (i + fu, j + fv) from the block's
+ * north-west sample b (patch heights, row stride P), under coarse diagonal `diag`. */
+static double coarse_value(const double *b, uint32_t P, uint32_t s, uint32_t step, uint32_t i, uint32_t j,
+                           double fu, double fv, int diag)
 {
-	uint32_t ci = i / s, cj = j / s;
-	if (ci * s == RELIEF_BLOCK_CELLS)
-		ci--;
-	if (cj * s == RELIEF_BLOCK_CELLS)
-		cj--;
-	double u = ((double)(i - ci * s) + fu) / s, v = ((double)(j - cj * s) + fv) / s;
+	const uint32_t C = s * step, last = RELIEF_BLOCK_CELLS / s - 1;
+	uint32_t ci = i / C, cj = j / C;
+	ci = ci > last ? last : ci;
+	cj = cj > last ? last : cj;
+	double u = ((double)(i - ci * C) + fu) / C, v = ((double)(j - cj * C) + fv) / C;
 	const double *c = b + (size_t)cj * s * P + ci * s;
 	return relief_cell_value(c[0], c[s], c[(size_t)s * P], c[(size_t)s * P + s], u, v, diag);
 }
 
-void relief_block_errors(const struct relief_layout *lay, const double *ph, double *eps)
+static bool finest_valid(const struct relief_original *o, uint64_t X, uint64_t Y)
 {
-	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS;
+	return X < o->w && Y < o->h && o->valid[Y * o->w + X];
+}
+
+int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py, const double *ph,
+                        const struct relief_finest *fin, double *eps)
+{
+	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS, step = 1u << (lay->levels - 1 - l);
+	const uint32_t n = B * step; /* finest cells per block side */
+	const size_t st = (size_t)fin->grid->size + 2;
+	/* live[j][i] for the block's (n + 1)^2 finest samples: bit 0 the sample is a corner of a
+	 * cell with a valid corner, bit 1 cell (i, j) has a valid corner */
+	uint8_t *live = malloc((size_t)(n + 1) * (n + 1));
+	if (!live)
+		return -ENOMEM;
 	for (uint32_t by = 0; by < lay->blocks; by++)
 		for (uint32_t bx = 0; bx < lay->blocks; bx++) {
+			const uint64_t X0 = ((uint64_t)px * (P - 1) + bx * B) * step, Y0 = ((uint64_t)py * (P - 1) + by * B) * step;
+			memset(live, 0, (size_t)(n + 1) * (n + 1));
+			for (uint32_t j = 0; j < n; j++)
+				for (uint32_t i = 0; i < n; i++) {
+					bool any = false;
+					for (uint32_t k = 0; k < 4 && !any; k++)
+						any = finest_valid(fin->orig, X0 + i + (k & 1), Y0 + j + (k >> 1));
+					if (!any)
+						continue;
+					uint8_t *c = live + (size_t)j * (n + 1) + i;
+					c[0] |= 3;
+					c[1] |= 1;
+					c[n + 1] |= 1;
+					c[n + 2] |= 1;
+				}
 			const double *b = ph + (size_t)by * B * P + bx * B;
 			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++) {
-				uint32_t s = 1u << d;
+				const uint32_t s = 1u << d;
 				double worst = 0.0;
-				for (uint32_t j = 0; j <= B; j++)
-					for (uint32_t i = 0; i <= B; i++) {
-						double h = b[(size_t)j * P + i];
+				for (uint32_t j = 0; j <= n; j++)
+					for (uint32_t i = 0; i <= n; i++) {
+						uint8_t lv = live[(size_t)j * (n + 1) + i];
+						if (!lv)
+							continue;
+						const int32_t *q = fin->grid->q + (Y0 + j + 1) * st + X0 + i + 1;
+						double h = fin->q2 * q[0];
 						for (int dc = 0; dc < 2; dc++) {
-							/* at the sample */
-							worst = fmax(worst, fabs(h - coarse_value(b, P, s, i, j, 0, 0, dc)));
-							if (i == B || j == B)
+							worst = fmax(worst, fabs(h - coarse_value(b, P, s, step, i, j, 0, 0, dc)));
+							if (!(lv & 2))
 								continue;
-							/* at the centre of fine cell (i, j), both fine diagonals */
-							const double *c = b + (size_t)j * P + i;
-							double f0 = 0.5 * ((double)c[0] + c[P + 1]);
-							double f1 = 0.5 * ((double)c[1] + c[P]);
-							double cv = coarse_value(b, P, s, i, j, 0.5, 0.5, dc);
+							/* the centre of finest cell (i, j), both of its diagonals */
+							double f0 = 0.5 * fin->q2 * ((double)q[0] + q[st + 1]);
+							double f1 = 0.5 * fin->q2 * ((double)q[1] + q[st]);
+							double cv = coarse_value(b, P, s, step, i, j, 0.5, 0.5, dc);
 							worst = fmax(worst, fmax(fabs(f0 - cv), fabs(f1 - cv)));
 						}
 					}
 				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] = worst;
 			}
 		}
+	free(live);
+	return 0;
 }
 
 float relief_block_error_decode(uint8_t code, double unit)

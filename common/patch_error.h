@@ -9,12 +9,20 @@
  *   recursion Err_Int + max Err_Appr(child) + delta_l, which it never exceeds). It already
  *   contains the patch's quantisation error.
  *
- * Block error eps_d (d = 1..4): the largest vertical distance, over the block, between the
- *   patch's full triangulation and the block triangulated on every 2^d-th sample. The
- *   difference of two piecewise-linear surfaces peaks at a vertex of their overlay; for
- *   grid-aligned triangulations those are the samples and the cell centres, where both
- *   diagonal choices of both surfaces are evaluated. eps_d + Err(P) then bounds the
- *   simplified block's distance to the original.
+ * Block error eps_d (d = 1..4), format version 4: the largest vertical distance, over the
+ *   block's footprint, between the block triangulated on every 2^d-th patch sample and the
+ *   finest decoded surface (the finest level's reconstruction, which is what a frame at full
+ *   detail draws). The difference of two piecewise-linear surfaces peaks at a vertex of
+ *   their overlay; for grid-aligned triangulations those are the finest samples and the
+ *   finest cells' centres, where both diagonal choices of both surfaces are evaluated. Only
+ *   finest cells with a valid corner count (a fragment is drawn only where its nearest
+ *   sample is valid), with all four corners and the centre. The bound is measured directly,
+ *   so it needs no Err(P) added: for a patch above the finest level it is often far below
+ *   the paper's eps_d + Err(P) (which adds the patch's worst error anywhere to every block),
+ *   and at the finest level it leaves out the codec's error, which is the tolerance's to
+ *   state, not the level of detail's (docs/lod.md).
+ *   Versions 2 and 3 stored eps_d against the patch's own full triangulation;
+ *   relief_file_block_errors() adds Err(P) to those, so readers see one meaning.
  */
 #pragma once
 
@@ -56,8 +64,18 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 uint8_t relief_block_error_encode(double e, double unit);
 float relief_block_error_decode(uint8_t code, double unit);
 
-/* eps[(by * blocks + bx) * 4 + (d - 1)] for every block of the patch. */
-void relief_block_errors(const struct relief_layout *lay, const double *patch_heights, double *eps);
+/* The finest decoded surface: the finest level's quantised grid times its quantum (2
+ * delta_L), and the original's validity. */
+struct relief_finest {
+	const struct relief_qgrid *grid;
+	double q2;
+	const struct relief_original *orig; /* valid, w, h */
+};
+
+/* eps[(by * blocks + bx) * 4 + (d - 1)] for every block of patch (l, px, py), whose P x P
+ * heights are patch_heights. 0 for a block without a valid sample. -ENOMEM or 0. */
+int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py,
+                        const double *patch_heights, const struct relief_finest *fin, double *eps);
 
 /* Value of the triangulated cell with corners h00 (u=v=0), h10, h01, h11 at (u, v) in
  * [0,1]^2, under the diagonal 00-11 (diag = 0) or 10-01 (diag = 1). */

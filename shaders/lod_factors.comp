@@ -63,11 +63,11 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 				vec4 eps = max(e, block_eps(it, nb.x, nb.y));
 				if (errors) {
 					vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
-					f[i] = error_factor(pts, 3, eps, it.err);
+					f[i] = error_factor(pts, 3, eps);
 				} else {
 					vec2 a, c;
 					block_edge(bl, sides[i], a, c);
-					f[i] = edge_factor(it, a, c, eps, it.err);
+					f[i] = edge_factor(it, a, c, eps);
 				}
 				continue;
 			}

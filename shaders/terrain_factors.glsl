@@ -3,8 +3,10 @@
 // through terrain_seal.glsl by the evaluation shader.
 //
 // Each edge of a tessellation block takes the coarsest simplification d (factor 16 / 2^d)
-// whose error segment, eps_d of the blocks on both sides plus Err(P), projects to at most
-// tau pixels. The paper measures the segment at the edge's midpoint only; here it is
+// whose error segment, the larger eps_d of the blocks on both sides, projects to at most
+// tau pixels. eps_d is measured against the finest decoded surface directly (format
+// version 4, common/patch_error.h), so unlike the paper no Err(P) is added to it. The
+// paper measures the segment at the edge's midpoint only; here it is
 // measured at both endpoints too (the largest projection wins), because an edge whose end
 // is nearer the camera than its middle broke the bound in the benchmark. Both blocks of an
 // edge compute it from the same numbers, so the patch is seamless inside, and so is a border
@@ -59,10 +61,10 @@ vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m
 
 // The coarsest factor whose error segment, measured at each of `n` points (clip space), is
 // within tau.
-float error_factor(vec4 c[3], int n, vec4 eps, float err)
+float error_factor(vec4 c[3], int n, vec4 eps)
 {
 	for (int d = 4; d >= 1; d--) {
-		precise float e = eps[d - 1] + err;
+		float e = eps[d - 1];
 		float worst = 0.0;
 		for (int i = 0; i < n; i++)
 			worst = max(worst, seg_pixels(c[i], e));
@@ -72,7 +74,7 @@ float error_factor(vec4 c[3], int n, vec4 eps, float err)
 	return float(BLOCK_CELLS);
 }
 
-float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, float err)
+float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
 {
 	uint fine = fine_lod();
 	if (fine == FINE_FULL)
@@ -90,21 +92,20 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, float err)
 		return exp2(floor(log2(f)));
 	}
 	vec4 pts[3] = vec4[3](clip_of(sample_pos(it, ivec2(a + 0.5))), clip_of(p), clip_of(sample_pos(it, ivec2(b + 0.5))));
-	return error_factor(pts, 3, eps, err);
+	return error_factor(pts, 3, eps);
 }
 
 // Errors for the edge of border block bl on `side` (0 north, 1 south, 2 west, 3 east): the
 // block's own, and, when the patch across the border at the same level is resident, its
 // block there too. Both patches then compute one factor from the same numbers, so where
 // they are drawn side by side their border vertices coincide (no T-junction, no skirt).
-void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout float err)
+void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps)
 {
 	int nid = neighbour_id(it, side);
 	if (nid < 0 || layer_of[nid] < 0)
 		return;
 	ivec2 across = border_block(side ^ 1u, side >= 2u ? bl.y : bl.x); // its block facing bl
 	eps = max(eps, block_eps_at(layer_of[nid], across));
-	err = max(err, info[nid].err);
 }
 
 // The block's sample nearest the camera (which sits at the origin), in clip space.
@@ -133,7 +134,7 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, vec4 pt[9], vec4 edges)
 	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
 	vec4 near = nearest_point(it, lo);
 	for (int d = top; d >= 1; d--) {
-		precise float e = eps[d - 1] + it.err;
+		float e = eps[d - 1];
 		bool pass = seg_pixels(near, e) <= pc.tau;
 		for (int k = 0; k < 9 && pass; k++)
 			pass = seg_pixels(pt[k], e) <= pc.tau;
@@ -155,9 +156,8 @@ void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 float border_edge_factor(Instance it, ivec2 bl, uint side)
 {
 	vec4 eps = block_eps(it, bl.x, bl.y);
-	float err = it.err;
-	border_errors(it, bl, side, eps, err);
+	border_errors(it, bl, side, eps);
 	vec2 a, b;
 	block_edge(bl, side, a, b);
-	return edge_factor(it, a, b, eps, err);
+	return edge_factor(it, a, b, eps);
 }

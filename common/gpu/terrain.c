@@ -131,8 +131,10 @@ static int layout_with_push(struct relief_vk *vk, VkDescriptorSetLayout set, VkS
 
 /* Skirt depth: how far below its border a patch's skirt reaches. Skirts hang only from the
  * terrain's outer edge (inside, borders are sealed: docs/lod.md), as a curtain that hides
- * the gap under the edge's simplified outline: the patch's full error at its coarsest block
- * simplification (Err(P) + max eps_4), doubled, plus the finest tolerance. */
+ * the gap under the edge's simplified outline: the coarsest block simplification's bound
+ * (max eps_4) plus Err(P), doubled, plus the finest tolerance. Generous on purpose: eps_4
+ * alone bounds the outline against the finest surface (for files before version 4 it
+ * already holds Err(P), which is then counted twice; a deeper curtain costs nothing). */
 static float skirt_depth(const struct relief_file *f, uint32_t id, const struct relief_patch_record *r)
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);

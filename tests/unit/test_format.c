@@ -254,7 +254,8 @@ static void test_open_from_disk(void **state)
 	assert_int_equal(test_count_fds(), fds);
 }
 
-/* Format version 2 is still read. tests/data/alps-crop-140x100-v2.relief was written by
+/* Format version 2 is still read (and version 3, which differs from it only in the
+ * streams). tests/data/alps-crop-140x100-v2.relief was written by
  * the last version-2 packer (commit "codec: branch-free residual sign ...") from the
  * Mont Blanc crop next to it (`relief pack alps-crop-140x100.f32 --raw-size 140x100
  * --raw-type float32 --spacing 92.7 --tolerance 1 --patch 65`). Version 3 skips padding
@@ -283,7 +284,7 @@ static void test_version2_still_read(void **state)
 	assert_int_equal(v3->hdr.levels, 3);
 	struct stat st;
 	assert_int_equal(stat(test_data("alps-crop-140x100-v2.relief"), &st), 0);
-	print_message("version 2: %lld bytes, version 3: %zu bytes\n", (long long)st.st_size, v3size);
+	print_message("version 2: %lld bytes, version %u: %zu bytes\n", (long long)st.st_size, RELIEF_FORMAT_VERSION, v3size);
 	assert_true(v3size < (size_t)st.st_size);
 	for (uint32_t l = 0; l < 3; l++) {
 		uint32_t w, h;
@@ -300,6 +301,37 @@ static void test_version2_still_read(void **state)
 		free(m2);
 		free(m3);
 	}
+	/* Block errors: version 2 stored them against the patch's own surface, and reading adds
+	 * Err(P) (a bound against the original); the current version measures them against
+	 * the finest decoded surface, which is within the finest tolerance of the original.
+	 * So every current bound is at most the old one plus that tolerance (both rounded up
+	 * by the byte code, at most 2^(1/16) above what was measured, never below one unit). */
+	const size_t nb = relief_block_errors_per_patch(v2->hdr.patch_size);
+	const double unit = v2->hdr.tolerance / 64.0, fin = v2->layout.delta[v2->hdr.levels - 1];
+	float *e2 = malloc(sizeof(float) * nb), *e3 = malloc(sizeof(float) * nb);
+	double sum2 = 0, sum3 = 0;
+	for (uint32_t id = 0; id < v2->hdr.patch_count; id++) {
+		struct relief_patch_record r;
+		relief_file_record(v2, id, &r);
+		if (r.flags & RELIEF_PATCH_EMPTY)
+			continue;
+		relief_file_block_errors(v2, id, e2);
+		relief_file_block_errors(v3, id, e3);
+		for (size_t i = 0; i < nb; i++) {
+			assert_true(e2[i] >= r.error);
+			if (e3[i] > fmax(unit, exp2(1.0 / 16) * (e2[i] + fin)))
+				fail_msg("patch %u error %zu: %g now, %g + %g before", id, i, e3[i], e2[i], fin);
+			if (isfinite(e2[i])) {
+				sum2 += e2[i];
+				sum3 += e3[i];
+			}
+		}
+	}
+	print_message("block errors (finite ones): sum %.1f m against the finest decoded surface, %.1f m as eps_d + Err(P)\n",
+	              sum3, sum2);
+	assert_true(sum3 < sum2);
+	free(e2);
+	free(e3);
 	relief_file_close(v2);
 	relief_file_close(v3);
 	free(v3img);
