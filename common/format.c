@@ -24,6 +24,17 @@ enum {
 	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_RESERVED = 336, H_CRC = 508,
 };
 
+size_t relief_block_ranges_per_patch(uint32_t patch_size)
+{
+	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
+	return b * b * 2;
+}
+
+size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
+{
+	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? relief_block_ranges_per_patch(patch_size) : 0);
+}
+
 size_t relief_block_errors_per_patch(uint32_t patch_size)
 {
 	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
@@ -206,7 +217,7 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "file is %zu bytes but its header says %llu (truncated or extended)", size,
 		           (unsigned long long)r.file_size);
 	uint64_t idx_len = (uint64_t)r.patch_count * RELIEF_INDEX_RECORD_SIZE;
-	uint64_t be_len = (uint64_t)r.patch_count * relief_block_errors_per_patch(r.patch_size);
+	uint64_t be_len = (uint64_t)r.patch_count * relief_block_bytes_per_patch(r.version, r.patch_size);
 	uint64_t mask_len = r.masks_size;
 	if ((r.mask_count == 0) != (mask_len == 0))
 		return bad(err, err_size, "mask section of %llu bytes for %u masks", (unsigned long long)mask_len,
@@ -258,7 +269,7 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	const struct relief_header *h = &f->hdr;
 	const uint8_t *b = f->meta;
 	uint64_t idx_len = (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE;
-	size_t be_per = relief_block_errors_per_patch(h->patch_size);
+	size_t be_per = relief_block_bytes_per_patch(h->version, h->patch_size);
 	uint64_t be_len = (uint64_t)h->patch_count * be_per;
 	uint64_t mask_len = h->masks_size;
 	if (crc_differs(relief_crc32c(0, b + h->index_offset, idx_len), h->index_crc))
@@ -300,6 +311,15 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 			masks_seen++;
 		} else if (r.mask_offset || r.mask_size) {
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
+		}
+		if (ret == 0 && h->version >= 4) {
+			const size_t nr = relief_block_ranges_per_patch(h->patch_size);
+			const uint8_t *rg = b + h->block_errors_offset + (uint64_t)id * be_per +
+			                    relief_block_errors_per_patch(h->patch_size);
+			for (size_t i = 0; i < nr && ret == 0; i += 2)
+				if (rg[i] > rg[i + 1])
+					ret = bad(err, err_size, "patch %u (level %u, %u,%u): block %zu's height range is inverted",
+					          id, l, px, py, i / 2);
 		}
 		if (ret == 0 && !(r.flags & RELIEF_PATCH_EMPTY) && r.size > f->max_stream)
 			f->max_stream = r.size;
@@ -469,7 +489,8 @@ int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *b
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps)
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
-	const uint8_t *p = f->meta + f->hdr.block_errors_offset + (uint64_t)id * n;
+	const uint8_t *p = f->meta + f->hdr.block_errors_offset +
+	                   (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size);
 	const double unit = f->hdr.tolerance / 64.0;
 	/* Before version 4 a block's error was measured against its patch's own surface, so the
 	 * bound for the block is that plus Err(P) (the paper's sum), rounded up. */
@@ -482,6 +503,27 @@ void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *e
 	for (size_t i = 0; i < n; i++) {
 		float e = relief_block_error_decode(p[i], unit);
 		eps[i] = err > 0.0 && isfinite(e) ? relief_float_up((double)e + err) : e;
+	}
+}
+
+void relief_file_block_ranges(const struct relief_file *f, uint32_t id, float *range)
+{
+	size_t n = relief_block_ranges_per_patch(f->hdr.patch_size);
+	struct relief_patch_record r;
+	relief_file_record(f, id, &r);
+	if (f->hdr.version < 4) {
+		for (size_t i = 0; i < n; i += 2) {
+			range[i] = r.height_min;
+			range[i + 1] = r.height_max;
+		}
+		return;
+	}
+	const uint8_t *p = f->meta + f->hdr.block_errors_offset +
+	                   (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size) +
+	                   relief_block_errors_per_patch(f->hdr.patch_size);
+	for (size_t i = 0; i < n; i += 2) {
+		range[i] = relief_block_range_decode(p[i], r.height_min, r.height_max, false);
+		range[i + 1] = relief_block_range_decode(p[i + 1], r.height_min, r.height_max, true);
 	}
 }
 

@@ -73,6 +73,11 @@ struct relief_patch_record {
 
 /* Block errors per patch (one byte each on disk, see relief_block_error_encode()). */
 size_t relief_block_errors_per_patch(uint32_t patch_size);
+/* Block height ranges per patch: low and high of each block (two bytes on disk from version
+ * 4, see relief_block_range_encode()). */
+size_t relief_block_ranges_per_patch(uint32_t patch_size);
+/* Bytes per patch in the block section: its errors, then (version 4) its height ranges. */
+size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size);
 
 /* Serialises / parses the 512-byte header (parse checks magic, version, sizes, ranges and
  * the header CRC, and fills `lay`). */
@@ -111,6 +116,9 @@ int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *b
  * the stored value plus Err(P), the paper's sum, a bound against the original samples);
  * +infinity means "never simplify". */
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps);
+/* Each block's height range (low, high; metres), bounds on every sample of the block, so
+ * on the block drawn at any level (versions 2 and 3: the patch's range for every block). */
+void relief_file_block_ranges(const struct relief_file *f, uint32_t id, float *range);
 /* The samples patch id's stream codes: relief_patch_window() from version 3 on, the whole
  * patch in version 2. */
 void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_window *win);

@@ -50,7 +50,8 @@ struct packer {
 	/* per patch results */
 	struct relief_patch_record *rec;
 	uint8_t **stream;
-	double *eps; /* measured block errors, encoded when the file is assembled */
+	double *eps;    /* measured block errors, encoded when the file is assembled */
+	double *ranges; /* blocks' height ranges, likewise */
 	uint8_t **mask; /* coded masks of MASKED patches */
 	size_t *mask_size;
 
@@ -212,6 +213,7 @@ static int encode_patch(void *ctx, size_t id)
 	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest,
 	                               p->eps + id * relief_block_errors_per_patch(P))) < 0)
 		goto out;
+	relief_block_heights(&p->lay, heights, p->ranges + id * relief_block_ranges_per_patch(P));
 
 	/* Validity mask at this level's samples. */
 	uint8_t *mask = malloc((size_t)P * P);
@@ -275,7 +277,8 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 {
 	const struct relief_dem *dem = p->dem;
 	const uint32_t n = p->lay.patch_count, P = p->lay.geom.P;
-	const size_t be_per = relief_block_errors_per_patch(P);
+	const size_t be_per = relief_block_bytes_per_patch(RELIEF_FORMAT_VERSION, P);
+	const size_t ne = relief_block_errors_per_patch(P), nr = relief_block_ranges_per_patch(P);
 	struct relief_header h = {
 		.version = RELIEF_FORMAT_VERSION, .patch_size = P, .levels = p->lay.levels, .ratio = p->lay.ratio,
 		.block_cells = RELIEF_BLOCK_CELLS, .width = dem->width, .height = dem->height, .size = p->lay.size,
@@ -327,8 +330,11 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	for (uint32_t id = 0; id < n; id++) {
 		relief_record_write(&p->rec[id], img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE);
 		uint8_t *be = img + h.block_errors_offset + (uint64_t)id * be_per;
-		for (size_t i = 0; i < be_per; i++)
-			be[i] = relief_block_error_encode(p->eps[id * be_per + i], p->lay.tolerance / 64.0);
+		for (size_t i = 0; i < ne; i++)
+			be[i] = relief_block_error_encode(p->eps[id * ne + i], p->lay.tolerance / 64.0);
+		const struct relief_patch_record *r = &p->rec[id];
+		for (size_t i = 0; i < nr && !(r->flags & RELIEF_PATCH_EMPTY); i++)
+			be[ne + i] = relief_block_range_encode(p->ranges[id * nr + i], r->height_min, r->height_max, i & 1);
 		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
 			memcpy(img + h.masks_offset + p->rec[id].mask_offset, p->mask[id], p->mask_size[id]);
 		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY))
@@ -401,9 +407,10 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
 	p->eps = calloc((size_t)n * relief_block_errors_per_patch(P), sizeof(double));
+	p->ranges = calloc((size_t)n * relief_block_ranges_per_patch(P), sizeof(double));
 	p->mask = calloc(n, sizeof(*p->mask));
 	p->mask_size = calloc(n, sizeof(*p->mask_size));
-	if (!p->filled || !p->rec || !p->stream || !p->eps || !p->mask || !p->mask_size) {
+	if (!p->filled || !p->rec || !p->stream || !p->eps || !p->ranges || !p->mask || !p->mask_size) {
 		ret = -ENOMEM;
 		goto out;
 	}
@@ -446,6 +453,7 @@ out:
 	free(p->filled);
 	free(p->rec);
 	free(p->eps);
+	free(p->ranges);
 	pthread_mutex_destroy(&p->lock);
 	free(p);
 	return ret;

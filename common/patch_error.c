@@ -143,3 +143,44 @@ uint8_t relief_block_error_encode(double e, double unit)
 		code++; /* guard against log2/exp2 rounding */
 	return code;
 }
+
+void relief_block_heights(const struct relief_layout *lay, const double *ph, double *range)
+{
+	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS;
+	for (uint32_t by = 0; by < lay->blocks; by++)
+		for (uint32_t bx = 0; bx < lay->blocks; bx++) {
+			double lo = INFINITY, hi = -INFINITY;
+			for (uint32_t j = 0; j <= B; j++)
+				for (uint32_t i = 0; i <= B; i++) {
+					double h = ph[(size_t)(by * B + j) * P + bx * B + i];
+					lo = fmin(lo, h);
+					hi = fmax(hi, h);
+				}
+			range[((size_t)by * lay->blocks + bx) * 2] = lo;
+			range[((size_t)by * lay->blocks + bx) * 2 + 1] = hi;
+		}
+}
+
+float relief_block_range_decode(uint8_t code, float lo, float hi, bool high)
+{
+	double v = (double)lo + ((double)hi - lo) * code / 255.0;
+	float f = (float)v;
+	if (high ? (double)f < v : (double)f > v)
+		f = nextafterf(f, high ? INFINITY : -INFINITY);
+	return f;
+}
+
+uint8_t relief_block_range_encode(double v, float lo, float hi, bool high)
+{
+	if (!(hi > lo))
+		return 0;
+	double c = 255.0 * (v - lo) / ((double)hi - lo);
+	int code = high ? (int)ceil(c) : (int)floor(c);
+	code = code < 0 ? 0 : code > 255 ? 255 : code;
+	/* guard against rounding: the decoded end must contain v */
+	while (high && code < 255 && relief_block_range_decode((uint8_t)code, lo, hi, true) < v)
+		code++;
+	while (!high && code > 0 && relief_block_range_decode((uint8_t)code, lo, hi, false) > v)
+		code--;
+	return (uint8_t)code;
+}

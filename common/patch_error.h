@@ -27,6 +27,7 @@
 #pragma once
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "layout.h"
@@ -63,6 +64,18 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 #define RELIEF_BLOCK_CODE_INF 255
 uint8_t relief_block_error_encode(double e, double unit);
 float relief_block_error_decode(uint8_t code, double unit);
+
+/* A block's height range is two bytes within its patch's [lo, hi] (the index record's
+ * heights): code c stands for lo + c (hi - lo) / 255, rounded down for the low end (`high`
+ * false) and up for the high end, and the encoder picks the codes so that the decoded range
+ * contains [bmin, bmax]. The fine LOD projects error segments at the top (or bottom) of it
+ * (docs/lod.md). */
+uint8_t relief_block_range_encode(double v, float lo, float hi, bool high);
+float relief_block_range_decode(uint8_t code, float lo, float hi, bool high);
+
+/* range[(by * blocks + bx) * 2 + {0, 1}]: the lowest and highest of the block's (16 + 1)^2
+ * samples among the patch's P x P heights. */
+void relief_block_heights(const struct relief_layout *lay, const double *patch_heights, double *range);
 
 /* The finest decoded surface: the finest level's quantised grid times its quantum (2
  * delta_L), and the original's validity. */

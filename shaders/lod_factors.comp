@@ -45,13 +45,17 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
 		vec2 lo = vec2(bl) * float(BLOCK_CELLS);
 		vec4 e = block_eps(it, bl.x, bl.y);
+		vec2 range = block_range_at(it.layer, bl);
+		float h = check_height(range);
 		bool errors = fine_lod() == FINE_ERRORS;
-		// The block's corners, edge middles and centre in clip space, 3 x 3 in raster order:
-		// where its edges and its interior are measured (the points edge_points() gives).
+		// The block's corners, edge middles and centre in clip space at its measuring height,
+		// 3 x 3 in raster order: where its interior is measured, and its edges at the height
+		// both blocks of the edge share.
 		vec4 pt[9];
+		const float half_block = float(BLOCK_CELLS / 2u);
 		if (errors)
 			for (int q = 0; q < 9; q++)
-				pt[q] = clip_of(sample_pos(it, ivec2(lo + vec2(float(q % 3), float(q / 3)) * float(BLOCK_CELLS / 2u) + 0.5)));
+				pt[q] = check_clip(it, lo + vec2(float(q % 3), float(q / 3)) * half_block, h);
 		// Edges in the order of the outer factors: west, north, east, south.
 		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
 		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
@@ -61,13 +65,15 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			ivec2 nb = bl + toward[i];
 			if (nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b) {
 				vec4 eps = max(e, block_eps(it, nb.x, nb.y));
-				if (errors) {
+				vec2 rn = block_range_at(it.layer, nb), er = vec2(min(range.x, rn.x), max(range.y, rn.y));
+				float eh = check_height(er);
+				if (errors && eh == h) {
 					vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
 					f[i] = error_factor(pts, 3, eps);
 				} else {
 					vec2 a, c;
 					block_edge(bl, sides[i], a, c);
-					f[i] = edge_factor(it, a, c, eps);
+					f[i] = edge_factor(it, a, c, eps, er);
 				}
 				continue;
 			}
@@ -80,7 +86,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		if (errors) { // isotropic: see the top of terrain_factors.glsl
-			inner = vec2(interior_factor(it, lo, e, pt, outer));
+			inner = vec2(interior_factor(it, lo, e, h, pt, outer));
 		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
 			inner = vec2(max(f[1], f[3]), max(f[0], f[2]));
 		}

@@ -23,9 +23,12 @@
 // A block's errors eps_1..eps_4, made non-decreasing: a coarser level's measured error can
 // be below a finer one's (the triangulations do not nest), and max(eps_1..eps_d) still bounds
 // level d. With it, a level that passes the test implies every finer level passes.
+// A layer's block data: blocks^2 x 4 errors, then blocks^2 x 2 height ranges (patch_cache.h).
+uint block_data_base(int layer) { return uint(layer) * pc.blocks * pc.blocks * 6u; }
+
 vec4 block_eps_at(int layer, ivec2 bl)
 {
-	uint base = (uint(layer) * pc.blocks * pc.blocks + uint(bl.y) * pc.blocks + uint(bl.x)) * 4u;
+	uint base = block_data_base(layer) + (uint(bl.y) * pc.blocks + uint(bl.x)) * 4u;
 	vec4 e = vec4(block_err[base], block_err[base + 1u], block_err[base + 2u], block_err[base + 3u]);
 	e.y = max(e.x, e.y);
 	e.z = max(e.y, e.z);
@@ -34,6 +37,21 @@ vec4 block_eps_at(int layer, ivec2 bl)
 }
 
 vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec2(bx, by)); }
+
+// Block bl's height range (low, high; metres): every sample of the block lies in it, so the
+// block drawn at any level does.
+vec2 block_range_at(int layer, ivec2 bl)
+{
+	uint base = block_data_base(layer) + pc.blocks * pc.blocks * 4u + (uint(bl.y) * pc.blocks + uint(bl.x)) * 2u;
+	return vec2(block_err[base], block_err[base + 1u]);
+}
+
+// The height at which error segments are projected over a height range: a vertical error
+// segment's image grows as its point nears the camera along the view axis, so where the
+// camera looks down (clip w falls with height) the top of the range, else the bottom.
+// Projected at the samples' own heights instead, a ridge higher than every measuring point
+// was nearer than all of them, and a flight pixel broke tau by 2 % (docs/lod.md).
+float check_height(vec2 range) { return pc.vp[2].w < 0.0 ? range.y : range.x; }
 
 // `precise` throughout: both patches at a border must reach the same factor from the same
 // numbers, so no call site may fuse operations differently.
@@ -59,6 +77,9 @@ float seg_pixels(vec4 c, float e)
 
 vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m)); }
 
+// Sample m's position raised (or lowered) to the measuring height h, in clip space.
+vec4 check_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(m + 0.5), h)); }
+
 // The coarsest factor whose error segment, measured at each of `n` points (clip space), is
 // within tau.
 float error_factor(vec4 c[3], int n, vec4 eps)
@@ -74,13 +95,11 @@ float error_factor(vec4 c[3], int n, vec4 eps)
 	return float(BLOCK_CELLS);
 }
 
-float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
+float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range)
 {
 	uint fine = fine_lod();
 	if (fine == FINE_FULL)
 		return float(BLOCK_CELLS);
-	ivec2 m = ivec2((a + b) * 0.5 + 0.5);
-	vec3 p = sample_pos(it, m);
 	if (fine == FINE_DISTANCE) {
 		// Baseline without error metrics: cells so that triangles are about target_px wide,
 		// rounded down to a power of two so that vertices stay on samples.
@@ -91,7 +110,8 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
 		float f = clamp(len / pc.target_px, 1.0, float(BLOCK_CELLS));
 		return exp2(floor(log2(f)));
 	}
-	vec4 pts[3] = vec4[3](clip_of(sample_pos(it, ivec2(a + 0.5))), clip_of(p), clip_of(sample_pos(it, ivec2(b + 0.5))));
+	float h = check_height(range);
+	vec4 pts[3] = vec4[3](check_clip(it, a, h), check_clip(it, (a + b) * 0.5, h), check_clip(it, b, h));
 	return error_factor(pts, 3, eps);
 }
 
@@ -99,23 +119,25 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps)
 // block's own, and, when the patch across the border at the same level is resident, its
 // block there too. Both patches then compute one factor from the same numbers, so where
 // they are drawn side by side their border vertices coincide (no T-junction, no skirt).
-void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps)
+void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout vec2 range)
 {
 	int nid = neighbour_id(it, side);
 	if (nid < 0 || layer_of[nid] < 0)
 		return;
 	ivec2 across = border_block(side ^ 1u, side >= 2u ? bl.y : bl.x); // its block facing bl
 	eps = max(eps, block_eps_at(layer_of[nid], across));
+	vec2 r = block_range_at(layer_of[nid], across);
+	range = vec2(min(range.x, r.x), max(range.y, r.y));
 }
 
-// The block's sample nearest the camera (which sits at the origin), in clip space.
-vec4 nearest_point(Instance it, vec2 lo)
+// The block's sample nearest the camera (which sits at the origin) at measuring height h,
+// in clip space.
+vec4 nearest_point(Instance it, vec2 lo, float h)
 {
 	vec3 o = pos_of(it, ivec2(0), 0.0);
 	vec2 step = it.spacing * float(it.scale);
 	vec2 cam = vec2(-o.x / step.x, o.y / step.y); // camera in patch samples
-	ivec2 m = ivec2(clamp(cam, lo, lo + float(BLOCK_CELLS)) + 0.5);
-	return clip_of(sample_pos(it, m));
+	return check_clip(it, clamp(cam, lo, lo + float(BLOCK_CELLS)), h);
 }
 
 // The interior factor of the block at lo with errors eps, clip-space corners, edge middles
@@ -126,13 +148,13 @@ vec4 nearest_point(Instance it, vec2 lo)
 // 20 % fewer triangles. One level below the finest edge at most: without that limit, the
 // tessellator's transition triangles between a fine edge and a much coarser interior put a
 // test pixel 1.007 px off at tau = 1.
-float interior_factor(Instance it, vec2 lo, vec4 eps, vec4 pt[9], vec4 edges)
+float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges)
 {
 	// Levels coarser than the limit are not tried: the search starts there, and each level
 	// stops at its first point over tau (passing is monotone in d, eps being so).
 	float least = 0.5 * max(max(edges.x, edges.y), max(edges.z, edges.w));
 	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
-	vec4 near = nearest_point(it, lo);
+	vec4 near = nearest_point(it, lo, h);
 	for (int d = top; d >= 1; d--) {
 		float e = eps[d - 1];
 		bool pass = seg_pixels(near, e) <= pc.tau;
@@ -156,8 +178,9 @@ void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 float border_edge_factor(Instance it, ivec2 bl, uint side)
 {
 	vec4 eps = block_eps(it, bl.x, bl.y);
-	border_errors(it, bl, side, eps);
+	vec2 range = block_range_at(it.layer, bl);
+	border_errors(it, bl, side, eps, range);
 	vec2 a, b;
 	block_edge(bl, side, a, b);
-	return edge_factor(it, a, b, eps);
+	return edge_factor(it, a, b, eps, range);
 }

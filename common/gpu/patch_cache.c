@@ -27,7 +27,7 @@ static uint64_t pool_bytes_for(struct relief_patch_cache *c, uint32_t n)
 	VkDeviceSize m = relief_vk_image_bytes(c->vk, VK_FORMAT_R32_UINT, c->P, c->P, n, POOL_USAGE);
 	if (!h || !m)
 		return UINT64_MAX;
-	return h + m + (uint64_t)n * c->errors_per_layer * sizeof(float);
+	return h + m + (uint64_t)n * c->block_floats * sizeof(float);
 }
 
 /* The largest layer count whose pools fit the budget (real allocation sizes). */
@@ -77,9 +77,9 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	c->P = f->layout.geom.P;
 	c->E = f->layout.geom.E;
 	c->count = f->hdr.patch_count;
-	c->errors_per_layer = relief_block_errors_per_patch(c->P);
+	c->block_floats = relief_block_errors_per_patch(c->P) + relief_block_ranges_per_patch(c->P);
 	c->mask_ints = ((size_t)c->P * c->P + 3) / 4;
-	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->mask_ints + c->errors_per_layer;
+	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->mask_ints + c->block_floats;
 
 	int ret = -ENOMEM;
 	c->state = calloc(c->count, 1);
@@ -114,7 +114,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	                                POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
 	    (ret = relief_vk_image_init(vk, &c->normals, VK_FORMAT_R32_UINT, c->P, c->P, n,
 	                                VK_IMAGE_VIEW_TYPE_2D_ARRAY, POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->errors_per_layer * sizeof(float),
+	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->block_floats * sizeof(float),
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
 	                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->staging, (VkDeviceSize)c->o.staging_slots * c->slot_ints * 4,

@@ -76,7 +76,7 @@ struct relief_patch_cache_stats {
 struct relief_patch_pool {
 	VkImageView heights;      /* 2D array, R32_SINT, (P+2)^2 */
 	VkImageView normals;      /* 2D array, R32_UINT (packed snorm8 x 4), P^2 */
-	VkBuffer block_errors;    /* float[layers][blocks^2][4], metres */
+	VkBuffer block_errors;    /* per layer: float[blocks^2][4] errors, then float[blocks^2][2] height ranges, metres */
 	uint32_t layers;
 	/* int32[patch_count]: the layer of each resident patch, -1 otherwise; host-visible,
 	 * kept current by the cache, read by the LOD selection on the GPU. */
@@ -112,6 +112,7 @@ void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_
 const struct relief_patch_pool *relief_patch_cache_pool(const struct relief_patch_cache *c);
 
 /* Copies one layer back to the host (waits): heights (P+2)^2 ints, normals P^2 x 4 snorm8,
- * block errors blocks^2 x 4 floats; any pointer may be NULL. For tests and tools. */
+ * block errors blocks^2 x 4 floats followed by block height ranges blocks^2 x 2 floats; any
+ * pointer may be NULL. For tests and tools. */
 int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, int32_t *heights, int8_t *normals,
                                   float *block_errors);

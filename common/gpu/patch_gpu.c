@@ -275,9 +275,9 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	for (uint32_t i = 0; i < b->n; i++) {
 		size_t slot_base = (size_t)b->jobs[i].slot * c->slot_ints;
 		copies[i] = (VkBufferCopy){
-			.srcOffset = (slot_base + c->slot_ints - c->errors_per_layer) * 4,
-			.dstOffset = (VkDeviceSize)b->layers[i] * c->errors_per_layer * sizeof(float),
-			.size = c->errors_per_layer * sizeof(float),
+			.srcOffset = (slot_base + c->slot_ints - c->block_floats) * 4,
+			.dstOffset = (VkDeviceSize)b->layers[i] * c->block_floats * sizeof(float),
+			.size = c->block_floats * sizeof(float),
 		};
 		flags[b->jobs[i].slot] = 0;
 	}
@@ -350,7 +350,7 @@ int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, 
 	if (layer >= c->pool.layers)
 		return -EINVAL;
 	struct relief_vk *vk = c->vk;
-	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->errors_per_layer * sizeof(float);
+	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->block_floats * sizeof(float);
 	struct relief_vk_buffer out;
 	int ret = relief_vk_buffer_init(vk, &out, hb + nb + eb, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
 	if (ret < 0)

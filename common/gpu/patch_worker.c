@@ -87,7 +87,9 @@ static int fill_slot(struct relief_patch_cache *c, struct relief_decoder *dec, i
 		if ((ret = relief_file_mask(c->file, id, mask)) < 0)
 			return ret;
 	}
-	relief_file_block_errors(c->file, id, (float *)(s + c->slot_ints - c->errors_per_layer));
+	float *blocks = (float *)(s + c->slot_ints - c->block_floats);
+	relief_file_block_errors(c->file, id, blocks);
+	relief_file_block_ranges(c->file, id, blocks + relief_block_errors_per_patch(c->P));
 	return 0;
 }
 

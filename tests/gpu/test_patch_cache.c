@@ -85,7 +85,7 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 
 	const struct relief_layout *lay = &f->layout;
 	const uint32_t E = lay->geom.E, P = lay->geom.P;
-	const size_t EE = (size_t)E * E, nb = relief_block_errors_per_patch(P);
+	const size_t EE = (size_t)E * E, ne = relief_block_errors_per_patch(P), nb = ne + relief_block_ranges_per_patch(P);
 	int32_t *gpu_h = malloc(sizeof(int32_t) * EE);
 	int8_t *gpu_n = malloc((size_t)P * P * 4);
 	float *gpu_e = malloc(sizeof(float) * nb), *cpu_e = malloc(sizeof(float) * nb);
@@ -111,7 +111,23 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 						         k / E, gpu_h[k], cpu[k]);
 			}
 			relief_file_block_errors(f, id, cpu_e);
+			relief_file_block_ranges(f, id, cpu_e + ne);
 			assert_memory_equal(gpu_e, cpu_e, sizeof(float) * nb);
+			/* every sample of a block (its border included) within the block's height range */
+			const double q2 = 2.0 * lay->delta[l];
+			for (uint32_t y = 0; y < P; y++)
+				for (uint32_t x = 0; x < P; x++) {
+					double h = q2 * cpu[(y + 1) * E + x + 1];
+					for (uint32_t by = y / RELIEF_BLOCK_CELLS - (y % RELIEF_BLOCK_CELLS == 0 && y > 0);
+					     by <= y / RELIEF_BLOCK_CELLS && by < lay->blocks; by++)
+						for (uint32_t bx = x / RELIEF_BLOCK_CELLS - (x % RELIEF_BLOCK_CELLS == 0 && x > 0);
+						     bx <= x / RELIEF_BLOCK_CELLS && bx < lay->blocks; bx++) {
+							const float *rg = cpu_e + ne + (by * lay->blocks + bx) * 2;
+							if (h < rg[0] || h > rg[1])
+								fail_msg("%s patch %u sample %u,%u: %g outside block %u,%u's range [%g, %g]",
+								         test_dem_name(d), id, x, y, h, bx, by, rg[0], rg[1]);
+						}
+				}
 			uint8_t *mask = malloc((size_t)P * P);
 			assert_int_equal(relief_file_mask(f, id, mask), 0);
 			for (size_t k = 0; k < (size_t)P * P; k++)
@@ -131,7 +147,8 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 		free(blocks);
 	}
 	/* snorm8 quantisation (1/254) plus float arithmetic */
-	print_message("%s: %u patches bit-exact, block errors equal, worst normal component error %.4f\n",
+	print_message("%s: %u patches bit-exact, block errors and height ranges equal and holding every sample, "
+	              "worst normal component error %.4f\n",
 	              test_dem_name(d), checked, worst_normal);
 	assert_true(worst_normal <= 0.006);
 	struct relief_patch_cache_stats s;

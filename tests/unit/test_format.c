@@ -88,7 +88,8 @@ static void test_bit_flips(void **state)
 	uint64_t sections[5][2] = {
 		{ 0, RELIEF_HEADER_SIZE },
 		{ h->index_offset, h->index_offset + (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE },
-		{ h->block_errors_offset, h->block_errors_offset + h->patch_count * relief_block_errors_per_patch(h->patch_size) },
+		{ h->block_errors_offset,
+		  h->block_errors_offset + h->patch_count * relief_block_bytes_per_patch(h->version, h->patch_size) },
 		{ h->masks_offset, h->masks_offset + h->masks_size },
 		{ h->crs_offset, h->crs_offset + h->crs_size },
 	};
@@ -232,6 +233,33 @@ static void test_hostile_records(void **state)
 	expect(open_with_record(1, rec_bad_mask, err, sizeof(err)), err, "mask");
 }
 
+/* A block height range whose low end is above its high end (the block section's CRC
+ * fixed) is refused, naming the patch and block; the file as packed has none. */
+static void test_inverted_block_range(void **state)
+{
+	char err[256];
+	struct relief_file *f;
+	assert_int_equal(relief_file_open_memory(img, img_size, &f, err, sizeof(err)), 0);
+	const struct relief_header h = f->hdr;
+	const size_t per = relief_block_bytes_per_patch(h.version, h.patch_size);
+	const size_t ranges = relief_block_errors_per_patch(h.patch_size);
+	float *rg = malloc(sizeof(float) * relief_block_ranges_per_patch(h.patch_size));
+	relief_file_block_ranges(f, 1, rg);
+	for (size_t i = 0; i < relief_block_ranges_per_patch(h.patch_size); i += 2)
+		assert_true(rg[i] <= rg[i + 1]);
+	free(rg);
+	relief_file_close(f);
+	uint8_t *copy = malloc(img_size);
+	memcpy(copy, img, img_size);
+	uint8_t *b = copy + h.block_errors_offset + per + ranges + 2 * 5; /* patch 1, block 5 */
+	b[0] = 200;
+	b[1] = 100;
+	le_put_u32(copy + 184, relief_crc32c(0, copy + h.block_errors_offset, (size_t)h.patch_count * per));
+	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
+	expect(open_copy(copy, img_size, err, sizeof(err)), err, "block 5's height range is inverted");
+	free(copy);
+}
+
 static void test_open_from_disk(void **state)
 {
 	char path[] = "/tmp/relief-test-XXXXXX";
@@ -260,8 +288,9 @@ static void test_open_from_disk(void **state)
  * Mont Blanc crop next to it (`relief pack alps-crop-140x100.f32 --raw-size 140x100
  * --raw-type float32 --spacing 92.7 --tolerance 1 --patch 65`). Version 3 skips padding
  * symbols but quantises alike, so both must decode to the same heights and masks at every
- * level, and the version-3 file must be smaller (its streams at the east and south edges
- * skip the padding beyond 140 x 100 in the 257 x 257 grid). */
+ * level, and the version-3 streams must be smaller (those at the east and south edges
+ * skip the padding beyond 140 x 100 in the 257 x 257 grid). The file written now is
+ * version 4 (v3 below), whose streams are version 3's. */
 static void test_version2_still_read(void **state)
 {
 	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
@@ -284,8 +313,10 @@ static void test_version2_still_read(void **state)
 	assert_int_equal(v3->hdr.levels, 3);
 	struct stat st;
 	assert_int_equal(stat(test_data("alps-crop-140x100-v2.relief"), &st), 0);
-	print_message("version 2: %lld bytes, version %u: %zu bytes\n", (long long)st.st_size, RELIEF_FORMAT_VERSION, v3size);
-	assert_true(v3size < (size_t)st.st_size);
+	print_message("version 2: %lld bytes (streams %llu), version %u: %zu bytes (streams %llu)\n", (long long)st.st_size,
+	              (unsigned long long)v2->hdr.data_size, RELIEF_FORMAT_VERSION, v3size,
+	              (unsigned long long)v3->hdr.data_size);
+	assert_true(v3->hdr.data_size < v2->hdr.data_size);
 	for (uint32_t l = 0; l < 3; l++) {
 		uint32_t w, h;
 		relief_level_extent(&v3->hdr, l, &w, &h);
@@ -317,6 +348,12 @@ static void test_version2_still_read(void **state)
 			continue;
 		relief_file_block_errors(v2, id, e2);
 		relief_file_block_errors(v3, id, e3);
+		float rg[2 * 16 * 16];
+		relief_file_block_ranges(v2, id, rg);
+		for (size_t i = 0; i < relief_block_ranges_per_patch(v2->hdr.patch_size); i += 2) {
+			assert_true(rg[i] == r.height_min); /* before version 4: the patch's range */
+			assert_true(rg[i + 1] == r.height_max);
+		}
 		for (size_t i = 0; i < nb; i++) {
 			assert_true(e2[i] >= r.error);
 			if (e3[i] > fmax(unit, exp2(1.0 / 16) * (e2[i] + fin)))
@@ -345,6 +382,7 @@ int main(void)
 		cmocka_unit_test(test_bit_flips),
 		cmocka_unit_test(test_hostile_header_fields),
 		cmocka_unit_test(test_hostile_records),
+		cmocka_unit_test(test_inverted_block_range),
 		cmocka_unit_test(test_open_from_disk),
 		cmocka_unit_test(test_version2_still_read),
 	};
