@@ -32,7 +32,8 @@ size_t relief_block_ranges_per_patch(uint32_t patch_size)
 
 size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
 {
-	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? relief_block_ranges_per_patch(patch_size) : 0);
+	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
+	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? b * b : 0); /* a range byte per block */
 }
 
 size_t relief_block_errors_per_patch(uint32_t patch_size)
@@ -313,13 +314,13 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
 		}
 		if (ret == 0 && h->version >= 4) {
-			const size_t nr = relief_block_ranges_per_patch(h->patch_size);
+			const size_t nr = relief_block_ranges_per_patch(h->patch_size) / 2;
 			const uint8_t *rg = b + h->block_errors_offset + (uint64_t)id * be_per +
 			                    relief_block_errors_per_patch(h->patch_size);
-			for (size_t i = 0; i < nr && ret == 0; i += 2)
-				if (rg[i] > rg[i + 1])
+			for (size_t i = 0; i < nr && ret == 0; i++)
+				if ((rg[i] & 15) > (rg[i] >> 4))
 					ret = bad(err, err_size, "patch %u (level %u, %u,%u): block %zu's height range is inverted",
-					          id, l, px, py, i / 2);
+					          id, l, px, py, i);
 		}
 		if (ret == 0 && !(r.flags & RELIEF_PATCH_EMPTY) && r.size > f->max_stream)
 			f->max_stream = r.size;
@@ -522,8 +523,8 @@ void relief_file_block_ranges(const struct relief_file *f, uint32_t id, float *r
 	                   (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size) +
 	                   relief_block_errors_per_patch(f->hdr.patch_size);
 	for (size_t i = 0; i < n; i += 2) {
-		range[i] = relief_block_range_decode(p[i], r.height_min, r.height_max, false);
-		range[i + 1] = relief_block_range_decode(p[i + 1], r.height_min, r.height_max, true);
+		range[i] = relief_block_range_decode(p[i / 2] & 15, r.height_min, r.height_max, false);
+		range[i + 1] = relief_block_range_decode(p[i / 2] >> 4, r.height_min, r.height_max, true);
 	}
 }
 

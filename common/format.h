@@ -73,8 +73,8 @@ struct relief_patch_record {
 
 /* Block errors per patch (one byte each on disk, see relief_block_error_encode()). */
 size_t relief_block_errors_per_patch(uint32_t patch_size);
-/* Block height ranges per patch: low and high of each block (two bytes on disk from version
- * 4, see relief_block_range_encode()). */
+/* Block height ranges per patch, as floats: low and high of each block (from version 4 one
+ * byte per block on disk, see relief_block_range_encode()). */
 size_t relief_block_ranges_per_patch(uint32_t patch_size);
 /* Bytes per patch in the block section: its errors, then (version 4) its height ranges. */
 size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size);

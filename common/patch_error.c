@@ -163,7 +163,7 @@ void relief_block_heights(const struct relief_layout *lay, const double *ph, dou
 
 float relief_block_range_decode(uint8_t code, float lo, float hi, bool high)
 {
-	double v = (double)lo + ((double)hi - lo) * code / 255.0;
+	double v = (double)lo + ((double)hi - lo) * code / RELIEF_BLOCK_RANGE_STEPS;
 	float f = (float)v;
 	if (high ? (double)f < v : (double)f > v)
 		f = nextafterf(f, high ? INFINITY : -INFINITY);
@@ -174,11 +174,12 @@ uint8_t relief_block_range_encode(double v, float lo, float hi, bool high)
 {
 	if (!(hi > lo))
 		return 0;
-	double c = 255.0 * (v - lo) / ((double)hi - lo);
+	const int top = RELIEF_BLOCK_RANGE_STEPS;
+	double c = top * (v - lo) / ((double)hi - lo);
 	int code = high ? (int)ceil(c) : (int)floor(c);
-	code = code < 0 ? 0 : code > 255 ? 255 : code;
+	code = code < 0 ? 0 : code > top ? top : code;
 	/* guard against rounding: the decoded end must contain v */
-	while (high && code < 255 && relief_block_range_decode((uint8_t)code, lo, hi, true) < v)
+	while (high && code < top && relief_block_range_decode((uint8_t)code, lo, hi, true) < v)
 		code++;
 	while (!high && code > 0 && relief_block_range_decode((uint8_t)code, lo, hi, false) > v)
 		code--;

@@ -65,11 +65,13 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 uint8_t relief_block_error_encode(double e, double unit);
 float relief_block_error_decode(uint8_t code, double unit);
 
-/* A block's height range is two bytes within its patch's [lo, hi] (the index record's
- * heights): code c stands for lo + c (hi - lo) / 255, rounded down for the low end (`high`
- * false) and up for the high end, and the encoder picks the codes so that the decoded range
- * contains [bmin, bmax]. The fine LOD projects error segments at the top (or bottom) of it
- * (docs/lod.md). */
+/* A block's height range is one byte, two 4-bit codes within its patch's [lo, hi] (the
+ * index record's heights): code c stands for lo + c (hi - lo) / 15, rounded down for the low
+ * end (`high` false, bits 0-3) and up for the high end (bits 4-7), and the encoder picks
+ * the codes so that the decoded range contains [bmin, bmax]. The fine LOD projects error
+ * segments at the top (or bottom) of it (docs/lod.md); a sixteenth of the patch's range is
+ * precise enough for that, and a byte per block keeps small files small. */
+#define RELIEF_BLOCK_RANGE_STEPS 15
 uint8_t relief_block_range_encode(double v, float lo, float hi, bool high);
 float relief_block_range_decode(uint8_t code, float lo, float hi, bool high);
 

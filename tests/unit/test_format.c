@@ -251,9 +251,8 @@ static void test_inverted_block_range(void **state)
 	relief_file_close(f);
 	uint8_t *copy = malloc(img_size);
 	memcpy(copy, img, img_size);
-	uint8_t *b = copy + h.block_errors_offset + per + ranges + 2 * 5; /* patch 1, block 5 */
-	b[0] = 200;
-	b[1] = 100;
+	uint8_t *b = copy + h.block_errors_offset + per + ranges + 5; /* patch 1, block 5 */
+	*b = 0x3c; /* low code 12, high code 3 */
 	le_put_u32(copy + 184, relief_crc32c(0, copy + h.block_errors_offset, (size_t)h.patch_count * per));
 	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
 	expect(open_copy(copy, img_size, err, sizeof(err)), err, "block 5's height range is inverted");
