@@ -333,9 +333,10 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		for (size_t i = 0; i < ne; i++)
 			be[i] = relief_block_error_encode(p->eps[id * ne + i], p->lay.tolerance / 64.0);
 		const struct relief_patch_record *r = &p->rec[id];
+		const double *rg = p->ranges + id * nr;
 		for (size_t i = 0; i < nr && !(r->flags & RELIEF_PATCH_EMPTY); i += 2)
-			be[ne + i / 2] = relief_block_range_encode(p->ranges[id * nr + i], r->height_min, r->height_max, false) |
-			                 relief_block_range_encode(p->ranges[id * nr + i + 1], r->height_min, r->height_max, true) << 4;
+			be[ne + i / 2] = relief_block_range_encode(rg[i], r->height_min, r->height_max, false) |
+			                 relief_block_range_encode(rg[i + 1], r->height_min, r->height_max, true) << 4;
 		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
 			memcpy(img + h.masks_offset + p->rec[id].mask_offset, p->mask[id], p->mask_size[id]);
 		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY))

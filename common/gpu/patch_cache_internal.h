@@ -57,7 +57,7 @@ struct relief_patch_cache {
 	struct relief_patch_cache_options o;
 	uint32_t P, E, count;
 	size_t block_floats;             /* floats per layer: block errors, then block height ranges */
-	size_t slot_ints;                /* labels, values, mask, block errors */
+	size_t slot_ints;                /* labels, values, mask, block errors and ranges */
 	size_t mask_ints;                /* P^2 validity bytes, four per int */
 
 	/* GPU objects */
