@@ -564,6 +564,50 @@ static void test_hard_views(void **state)
 	bound_close(&b);
 }
 
+/* A version-2 file (tests/data: the Mont Blanc crop, patch 65) still renders within tau
+ * and without cracks: its block errors are read as eps_d + Err(P) and its block ranges as
+ * the patch's range (format.h), a bound and a measuring height the renderer can use. */
+static void test_old_version_renders(void **state)
+{
+	enum { W = 320, H = 180 };
+	struct scene s = { 0 };
+	char err[256];
+	assert_int_equal(relief_file_open(test_data("alps-crop-140x100-v2.relief"), &s.f, err, sizeof(err)), 0);
+	assert_int_equal(s.f->hdr.version, 2);
+	struct relief_patch_cache_options co = { .budget_bytes = 16ull << 20 };
+	assert_int_equal(relief_patch_cache_create(vk, s.f, &co, &gpu_test_log, &s.cache), 0);
+	assert_int_equal(relief_vk_target_init(vk, &s.target, W, H), 0);
+	assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
+	assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	uint32_t fw, fh;
+	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
+	float *lod = malloc(sizeof(float) * W * H);
+	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
+	/* The crop spans x in [0, 12886] m, y in [0, 9177] m: from the south, looking north and down. */
+	struct relief_view v = {
+		.eye = { 6400, -3000, 5500 }, .target = { 6400, 5000, 2000 },
+		.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 1e5, .tau = 0.001,
+	};
+	struct relief_terrain_stats st;
+	render(&s, &v, ref, &st);
+	const double taus[] = { 1.0, 4.0 };
+	for (size_t k = 0; k < 2; k++) {
+		v.tau = taus[k];
+		render(&s, &v, lod, &st);
+		struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
+		print_message("version 2 file, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px over "
+		              "%u pixels\n", v.tau, st.patches, (unsigned long long)st.triangles, c.holes, c.worst_px, c.both);
+		assert_int_equal(c.holes, 0);
+		assert_true(c.both > W * H / 8);
+		assert_true(c.worst_px <= v.tau);
+	}
+	free(finest);
+	free(ref);
+	free(lod);
+	scene_close(&s);
+}
+
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
  * renders the same frame from the same relative camera: positions are camera-relative. */
 static void test_huge_coordinates(void **state)
@@ -696,6 +740,7 @@ int main(void)
 		cmocka_unit_test(test_ridge_above_measuring_points),
 		cmocka_unit_test(test_hard_views),
 		cmocka_unit_test(test_huge_coordinates),
+		cmocka_unit_test(test_old_version_renders),
 		cmocka_unit_test(test_nodata_hidden),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
