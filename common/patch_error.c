@@ -43,24 +43,57 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
 	return worst;
 }
 
-/* The block at level d: triangulated on every s-th patch sample, each patch cell `step`
- * finest cells wide. Its value at finest offset (i + fu, j + fv) from the block's
- * north-west sample b (patch heights, row stride P), under coarse diagonal `diag`. */
-static double coarse_value(const double *b, uint32_t P, uint32_t s, uint32_t step, uint32_t i, uint32_t j,
-                           double fu, double fv, int diag)
-{
-	const uint32_t C = s * step, last = RELIEF_BLOCK_CELLS / s - 1;
-	uint32_t ci = i / C, cj = j / C;
-	ci = ci > last ? last : ci;
-	cj = cj > last ? last : cj;
-	double u = ((double)(i - ci * C) + fu) / C, v = ((double)(j - cj * C) + fv) / C;
-	const double *c = b + (size_t)cj * s * P + ci * s;
-	return relief_cell_value(c[0], c[s], c[(size_t)s * P], c[(size_t)s * P + s], u, v, diag);
-}
-
 static bool finest_valid(const struct relief_original *o, uint64_t X, uint64_t Y)
 {
 	return X < o->w && Y < o->h && o->valid[Y * o->w + X];
+}
+
+static inline double dmax(double a, double b) { return a > b ? a : b; }
+
+/* The largest distance between the block at level d (triangulated on every s-th patch
+ * sample from its north-west sample b, row stride P, each patch cell `step` finest cells
+ * wide) and the finest surface, over the block's live finest samples and cell centres
+ * (`live`, (n + 1)^2, see below). Coarse cell by coarse cell, so that its corners are read
+ * once; each finest sample belongs to the coarse cell to its south-east (the last cell
+ * takes the block's east and south edges), each finest cell centre to the one holding it. */
+static double block_level_error(const double *b, uint32_t P, uint32_t s, uint32_t step, const uint8_t *live,
+                                uint32_t n, const struct relief_finest *fin, uint64_t X0, uint64_t Y0)
+{
+	const uint32_t C = s * step, cells = RELIEF_BLOCK_CELLS / s;
+	const size_t st = (size_t)fin->grid->size + 2;
+	const double q2 = fin->q2;
+	double worst = 0.0;
+	for (uint32_t cj = 0; cj < cells; cj++)
+		for (uint32_t ci = 0; ci < cells; ci++) {
+			const double *c = b + (size_t)cj * s * P + ci * s;
+			const double h00 = c[0], h10 = c[s], h01 = c[(size_t)s * P], h11 = c[(size_t)s * P + s];
+			const uint32_t jn = cj + 1 == cells ? C : C - 1, in = ci + 1 == cells ? C : C - 1;
+			for (uint32_t j = 0; j <= jn; j++) {
+				const uint32_t J = cj * C + j;
+				const double v = (double)j / C, vc = ((double)j + 0.5) / C;
+				for (uint32_t i = 0; i <= in; i++) {
+					const uint32_t I = ci * C + i;
+					const uint8_t lv = live[(size_t)J * (n + 1) + I];
+					if (!lv)
+						continue;
+					const int32_t *q = fin->grid->q + (Y0 + J + 1) * st + X0 + I + 1;
+					const double h = q2 * q[0], u = (double)i / C;
+					for (int dc = 0; dc < 2; dc++)
+						worst = dmax(worst, fabs(h - relief_cell_value(h00, h10, h01, h11, u, v, dc)));
+					if (!(lv & 2) || i == C || j == C)
+						continue;
+					/* the centre of finest cell (I, J), both of its diagonals */
+					const double f0 = 0.5 * q2 * ((double)q[0] + q[st + 1]);
+					const double f1 = 0.5 * q2 * ((double)q[1] + q[st]);
+					const double uc = ((double)i + 0.5) / C;
+					for (int dc = 0; dc < 2; dc++) {
+						const double cv = relief_cell_value(h00, h10, h01, h11, uc, vc, dc);
+						worst = dmax(worst, dmax(fabs(f0 - cv), fabs(f1 - cv)));
+					}
+				}
+			}
+		}
+	return worst;
 }
 
 int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py, const double *ph,
@@ -68,7 +101,6 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 {
 	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS, step = 1u << (lay->levels - 1 - l);
 	const uint32_t n = B * step; /* finest cells per block side */
-	const size_t st = (size_t)fin->grid->size + 2;
 	/* live[j][i] for the block's (n + 1)^2 finest samples: bit 0 the sample is a corner of a
 	 * cell with a valid corner, bit 1 cell (i, j) has a valid corner */
 	uint8_t *live = malloc((size_t)(n + 1) * (n + 1));
@@ -92,29 +124,9 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 					c[n + 2] |= 1;
 				}
 			const double *b = ph + (size_t)by * B * P + bx * B;
-			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++) {
-				const uint32_t s = 1u << d;
-				double worst = 0.0;
-				for (uint32_t j = 0; j <= n; j++)
-					for (uint32_t i = 0; i <= n; i++) {
-						uint8_t lv = live[(size_t)j * (n + 1) + i];
-						if (!lv)
-							continue;
-						const int32_t *q = fin->grid->q + (Y0 + j + 1) * st + X0 + i + 1;
-						double h = fin->q2 * q[0];
-						for (int dc = 0; dc < 2; dc++) {
-							worst = fmax(worst, fabs(h - coarse_value(b, P, s, step, i, j, 0, 0, dc)));
-							if (!(lv & 2))
-								continue;
-							/* the centre of finest cell (i, j), both of its diagonals */
-							double f0 = 0.5 * fin->q2 * ((double)q[0] + q[st + 1]);
-							double f1 = 0.5 * fin->q2 * ((double)q[1] + q[st]);
-							double cv = coarse_value(b, P, s, step, i, j, 0.5, 0.5, dc);
-							worst = fmax(worst, fmax(fabs(f0 - cv), fabs(f1 - cv)));
-						}
-					}
-				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] = worst;
-			}
+			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++)
+				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] =
+					block_level_error(b, P, 1u << d, step, live, n, fin, X0, Y0);
 		}
 	free(live);
 	return 0;
