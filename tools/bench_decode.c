@@ -220,7 +220,7 @@ int bench_decode(int argc, char **argv)
 		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches (decode pass %.2f ms, normals pass "
 		       "%.2f ms); worker entropy %.2f ms\n",
 		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, w * 1e3);
-		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors)\n",
+		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors and ranges)\n",
 		       (unsigned long long)st.bytes_per_layer);
 		printf("  descent: root to finest patch (%u levels) resident after %u updates\n", f->hdr.levels, descent);
 	}
