@@ -442,6 +442,37 @@ static void test_frozen_lod(void **state)
 	bound_close(&b);
 }
 
+/* Renders v at full resolution and at each of `taus`, and checks every LOD frame against
+ * the reference: no cracks, at least min_pixels showing terrain in both, the vertical error
+ * within tau at every one of them. */
+static void within_tau_of_reference(struct scene *s, struct relief_view *v, const double *taus, size_t n,
+                                    const char *what, uint32_t min_pixels)
+{
+	const uint32_t W = v->width, H = v->height;
+	uint32_t fw, fh;
+	relief_level_extent(&s->f->hdr, s->f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
+	float *lod = malloc(sizeof(float) * W * H);
+	assert_int_equal(relief_decode_level(s->f, s->f->hdr.levels - 1, 0, finest, NULL), 0);
+	struct relief_terrain_stats st;
+	v->tau = 0.001;
+	render(s, v, ref, &st);
+	for (size_t k = 0; k < n; k++) {
+		v->tau = taus[k];
+		render(s, v, lod, &st);
+		struct comparison c = compare(s, v, ref, lod, finest, fw, fh);
+		print_message("%s, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px (%.1f m) over "
+		              "%u pixels\n", what, v->tau, st.patches, (unsigned long long)st.triangles, c.holes, c.worst_px,
+		              c.worst_m, c.both);
+		assert_int_equal(c.holes, 0);
+		assert_true(c.both > min_pixels);
+		assert_true(c.worst_px <= v->tau);
+	}
+	free(finest);
+	free(ref);
+	free(lod);
+}
+
 /* A ridge above every point where a block's error segments are measured is nearer along
  * the view axis when the camera looks down, so its error projects larger than at any of
  * them. This frame (`relief bench lod --frames 48` on Mont Blanc, key pose 17, 480 x 270)
@@ -453,28 +484,12 @@ static void test_ridge_above_measuring_points(void **state)
 	enum { W = 480, H = 270 };
 	struct scene s;
 	scene_open(&s, DEM_ALPS, 1.0, W, H);
-	uint32_t fw, fh;
-	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
-	float *lod = malloc(sizeof(float) * W * H);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
 	struct relief_view v = {
 		.eye = { 20120.458, 20142.706, 4038.8 }, .target = { 32097.298, 32119.546, -1042.543 },
-		.fovy = 55 * M_PI / 180, .width = W, .height = H, .znear = 1, .zfar = 256496, .tau = 0.001,
+		.fovy = 55 * M_PI / 180, .width = W, .height = H, .znear = 1, .zfar = 256496,
 	};
-	struct relief_terrain_stats st;
-	render(&s, &v, ref, &st);
-	v.tau = 4;
-	render(&s, &v, lod, &st);
-	struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
-	print_message("ridge frame, tau 4: %u holes, max vertical error %.3f px (%.1f m) over %u pixels\n", c.holes,
-	              c.worst_px, c.worst_m, c.both);
-	assert_int_equal(c.holes, 0);
-	assert_true(c.both > W * H / 4);
-	assert_true(c.worst_px <= v.tau);
-	free(finest);
-	free(ref);
-	free(lod);
+	const double taus[] = { 4.0 };
+	within_tau_of_reference(&s, &v, taus, 1, "ridge frame", W * H / 4);
 	scene_close(&s);
 }
 
@@ -579,32 +594,13 @@ static void test_old_version_renders(void **state)
 	assert_int_equal(relief_vk_target_init(vk, &s.target, W, H), 0);
 	assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
 	assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
-	uint32_t fw, fh;
-	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
-	float *lod = malloc(sizeof(float) * W * H);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
 	/* The crop spans x in [0, 12886] m, y in [0, 9177] m: from the south, looking north and down. */
 	struct relief_view v = {
 		.eye = { 6400, -3000, 5500 }, .target = { 6400, 5000, 2000 },
-		.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 1e5, .tau = 0.001,
+		.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 1e5,
 	};
-	struct relief_terrain_stats st;
-	render(&s, &v, ref, &st);
 	const double taus[] = { 1.0, 4.0 };
-	for (size_t k = 0; k < 2; k++) {
-		v.tau = taus[k];
-		render(&s, &v, lod, &st);
-		struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
-		print_message("version 2 file, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px over "
-		              "%u pixels\n", v.tau, st.patches, (unsigned long long)st.triangles, c.holes, c.worst_px, c.both);
-		assert_int_equal(c.holes, 0);
-		assert_true(c.both > W * H / 8);
-		assert_true(c.worst_px <= v.tau);
-	}
-	free(finest);
-	free(ref);
-	free(lod);
+	within_tau_of_reference(&s, &v, taus, 2, "version 2 file", W * H / 8);
 	scene_close(&s);
 }
 
