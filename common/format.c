@@ -24,22 +24,33 @@ enum {
 	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_RESERVED = 336, H_CRC = 508,
 };
 
-size_t relief_block_ranges_per_patch(uint32_t patch_size)
+static size_t blocks_per_patch(uint32_t patch_size)
 {
 	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
-	return b * b * 2;
+	return b * b;
+}
+
+size_t relief_block_ranges_per_patch(uint32_t patch_size)
+{
+	return blocks_per_patch(patch_size) * 2;
 }
 
 size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
 {
-	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
-	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? b * b : 0); /* a range byte per block */
+	/* the errors, then from version 4 a range byte per block */
+	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? blocks_per_patch(patch_size) : 0);
+}
+
+/* Patch id's bytes in the block section: its errors, then (version 4) its range bytes. */
+static const uint8_t *patch_block_bytes(const struct relief_file *f, uint32_t id)
+{
+	return f->meta + f->hdr.block_errors_offset +
+	       (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size);
 }
 
 size_t relief_block_errors_per_patch(uint32_t patch_size)
 {
-	size_t b = (patch_size - 1) / RELIEF_BLOCK_CELLS;
-	return b * b * RELIEF_BLOCK_LEVELS;
+	return blocks_per_patch(patch_size) * RELIEF_BLOCK_LEVELS;
 }
 
 void relief_header_write(const struct relief_header *h, uint8_t *o)
@@ -314,9 +325,8 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
 		}
 		if (ret == 0 && h->version >= 4) {
-			const size_t nr = relief_block_ranges_per_patch(h->patch_size) / 2;
-			const uint8_t *rg = b + h->block_errors_offset + (uint64_t)id * be_per +
-			                    relief_block_errors_per_patch(h->patch_size);
+			const size_t nr = blocks_per_patch(h->patch_size);
+			const uint8_t *rg = patch_block_bytes(f, id) + relief_block_errors_per_patch(h->patch_size);
 			for (size_t i = 0; i < nr && ret == 0; i++)
 				if ((rg[i] & 15) > (rg[i] >> 4))
 					ret = bad(err, err_size, "patch %u (level %u, %u,%u): block %zu's height range is inverted",
@@ -490,8 +500,7 @@ int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *b
 void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *eps)
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
-	const uint8_t *p = f->meta + f->hdr.block_errors_offset +
-	                   (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size);
+	const uint8_t *p = patch_block_bytes(f, id);
 	const double unit = f->hdr.tolerance / 64.0;
 	/* Before version 4 a block's error was measured against its patch's own surface, so the
 	 * bound for the block is that plus Err(P) (the paper's sum), rounded up. */
@@ -519,9 +528,7 @@ void relief_file_block_ranges(const struct relief_file *f, uint32_t id, float *r
 		}
 		return;
 	}
-	const uint8_t *p = f->meta + f->hdr.block_errors_offset +
-	                   (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size) +
-	                   relief_block_errors_per_patch(f->hdr.patch_size);
+	const uint8_t *p = patch_block_bytes(f, id) + relief_block_errors_per_patch(f->hdr.patch_size);
 	for (size_t i = 0; i < n; i += 2) {
 		range[i] = relief_block_range_decode(p[i / 2] & 15, r.height_min, r.height_max, false);
 		range[i + 1] = relief_block_range_decode(p[i / 2] >> 4, r.height_min, r.height_max, true);

@@ -242,7 +242,7 @@ static void test_inverted_block_range(void **state)
 	assert_int_equal(relief_file_open_memory(img, img_size, &f, err, sizeof(err)), 0);
 	const struct relief_header h = f->hdr;
 	const size_t per = relief_block_bytes_per_patch(h.version, h.patch_size);
-	const size_t ranges = relief_block_errors_per_patch(h.patch_size);
+	const size_t errors = relief_block_errors_per_patch(h.patch_size); /* the range bytes follow */
 	float *rg = malloc(sizeof(float) * relief_block_ranges_per_patch(h.patch_size));
 	relief_file_block_ranges(f, 1, rg);
 	for (size_t i = 0; i < relief_block_ranges_per_patch(h.patch_size); i += 2)
@@ -251,7 +251,7 @@ static void test_inverted_block_range(void **state)
 	relief_file_close(f);
 	uint8_t *copy = malloc(img_size);
 	memcpy(copy, img, img_size);
-	uint8_t *b = copy + h.block_errors_offset + per + ranges + 5; /* patch 1, block 5 */
+	uint8_t *b = copy + h.block_errors_offset + per + errors + 5; /* patch 1, block 5 */
 	*b = 0x3c; /* low code 12, high code 3 */
 	le_put_u32(copy + 184, relief_crc32c(0, copy + h.block_errors_offset, (size_t)h.patch_count * per));
 	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
