@@ -6,8 +6,8 @@
 
 int relief_view_check(const struct relief_view *v, const char **why)
 {
-	const double vals[] = { v->eye.x, v->eye.y, v->eye.z, v->target.x, v->target.y, v->target.z, v->fovy,
-	                        v->znear, v->zfar, v->tau };
+	const double vals[] = { v->eye.x, v->eye.y, v->eye.z, v->target.x, v->target.y, v->target.z, v->roll,
+	                        v->fovy,  v->znear, v->zfar, v->tau };
 	for (size_t i = 0; i < sizeof(vals) / sizeof(vals[0]); i++)
 		if (!isfinite(vals[i])) {
 			*why = "a camera value is not a finite number";
@@ -17,9 +17,9 @@ int relief_view_check(const struct relief_view *v, const char **why)
 		*why = "the viewport must be 1..16384 pixels on each side";
 		return -EINVAL;
 	}
-	struct relief_mat4 m;
-	if (!relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &m)) {
-		*why = "the camera equals the look point, or looks straight up or down";
+	struct relief_vec3 f, r, u;
+	if (!relief_view_axes(v, &f, &r, &u)) {
+		*why = "the camera equals the look point";
 		return -EINVAL;
 	}
 	if (!(v->fovy > 1e-4 && v->fovy < M_PI - 1e-4)) {
@@ -35,6 +35,28 @@ int relief_view_check(const struct relief_view *v, const char **why)
 		return -EINVAL;
 	}
 	return 0;
+}
+
+bool relief_view_axes(const struct relief_view *v, struct relief_vec3 *fwd, struct relief_vec3 *right,
+                      struct relief_vec3 *up)
+{
+	struct relief_vec3 f, r0;
+	if (!isfinite(v->roll) || !relief_vec3_normalize(relief_vec3_sub(v->target, v->eye), &f))
+		return false;
+	/* |f x z| = sin of the angle from the vertical; below the limit the cross product's
+	 * direction is rounding noise, so the picture's top is north instead. */
+	struct relief_vec3 fz = relief_vec3_cross(f, (struct relief_vec3){ 0, 0, 1 });
+	if (relief_vec3_length(fz) < RELIEF_VIEW_NADIR)
+		fz = relief_vec3_cross(f, (struct relief_vec3){ 0, 1, 0 });
+	if (!relief_vec3_normalize(fz, &r0))
+		return false;
+	struct relief_vec3 u0 = relief_vec3_cross(r0, f);
+	double c = cos(v->roll), s = sin(v->roll);
+	/* Right bank: the right axis dips (-s u0), the up axis leans right (+s r0). */
+	*right = (struct relief_vec3){ c * r0.x - s * u0.x, c * r0.y - s * u0.y, c * r0.z - s * u0.z };
+	*up = (struct relief_vec3){ c * u0.x + s * r0.x, c * u0.y + s * r0.y, c * u0.z + s * r0.z };
+	*fwd = f;
+	return true;
 }
 
 double relief_view_kappa(const struct relief_view *v)
@@ -100,8 +122,9 @@ void relief_view_matrix(const struct relief_view *v, float out[16])
 void relief_view_matrix_from(const struct relief_view *v, struct relief_vec3 origin, float out[16])
 {
 	struct relief_mat4 view, proj, vp;
-	relief_mat4_look_at(relief_vec3_sub(v->eye, origin), relief_vec3_sub(v->target, origin),
-	                    (struct relief_vec3){ 0, 0, 1 }, &view);
+	struct relief_vec3 f, r, u;
+	relief_view_axes(v, &f, &r, &u);
+	relief_mat4_look_at(relief_vec3_sub(v->eye, origin), relief_vec3_sub(v->target, origin), u, &view);
 	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
 	vp = relief_mat4_mul(&proj, &view);
 	relief_mat4_to_float(&vp, out);
@@ -204,9 +227,7 @@ struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int
 {
 	double D = relief_view_depth_distance(v, d); /* along the view axis */
 	struct relief_vec3 f, r, u;
-	relief_vec3_normalize(relief_vec3_sub(v->target, v->eye), &f);
-	relief_vec3_normalize(relief_vec3_cross(f, (struct relief_vec3){ 0, 0, 1 }), &r);
-	u = relief_vec3_cross(r, f);
+	relief_view_axes(v, &f, &r, &u);
 	double t = tan(v->fovy / 2), aspect = (double)v->width / v->height;
 	double nx = (2.0 * (x + 0.5) / v->width - 1.0) * t * aspect, ny = (1.0 - 2.0 * (y + 0.5) / v->height) * t;
 	return (struct relief_vec3){ v->eye.x + D * (f.x + nx * r.x + ny * u.x), v->eye.y + D * (f.y + nx * r.y + ny * u.y),
@@ -216,7 +237,9 @@ struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int
 double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e)
 {
 	struct relief_mat4 view, proj, vp;
-	relief_mat4_look_at(v->eye, v->target, (struct relief_vec3){ 0, 0, 1 }, &view);
+	struct relief_vec3 f, r, u;
+	relief_view_axes(v, &f, &r, &u);
+	relief_mat4_look_at(v->eye, v->target, u, &view);
 	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
 	vp = relief_mat4_mul(&proj, &view);
 	double w0, w1;

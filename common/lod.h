@@ -15,6 +15,7 @@
 struct relief_view {
 	struct relief_vec3 eye;    /* world metres, double precision */
 	struct relief_vec3 target; /* a point the camera looks at */
+	double roll;               /* radians about the viewing direction; see relief_view_axes() */
 	double fovy;               /* vertical field of view, radians, in (0, pi) */
 	uint32_t width, height;    /* viewport, pixels */
 	double znear, zfar;        /* metres */
@@ -22,9 +23,19 @@ struct relief_view {
 };
 
 /* 0, or -EINVAL with a reason for NaN/infinite values, a zero-size viewport, eye equal to
- * target, a view straight up or down (undefined roll), fov outside (0, pi), near/far not
- * 0 < near < far, or tau <= 0. */
+ * target, fov outside (0, pi), near/far not 0 < near < far, or tau <= 0. */
 int relief_view_check(const struct relief_view *v, const char **why);
+
+/* The camera's orthonormal axes (world): fwd towards the target, right and up as the
+ * picture shows them. With roll 0, up is in the vertical plane through fwd (world +z
+ * upwards on screen); within RELIEF_VIEW_NADIR of straight down or up, where that plane
+ * is undefined, north (+y) is at the top of the picture instead, so nadir views of an
+ * image generator's sensor are well defined. Roll then turns the camera about fwd:
+ * positive is an aircraft's right bank (right wing down; the horizon turns anticlockwise
+ * in the picture). False only when eye equals target or a value is not finite. */
+#define RELIEF_VIEW_NADIR 1e-9 /* radians */
+bool relief_view_axes(const struct relief_view *v, struct relief_vec3 *fwd, struct relief_vec3 *right,
+                      struct relief_vec3 *up);
 
 /* kappa = height / (2 tan(fovy / 2)): pixels per unit of error / distance. */
 double relief_view_kappa(const struct relief_view *v);

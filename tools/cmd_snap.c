@@ -24,6 +24,8 @@ static void snap_usage(FILE *f)
 		"  -o, --output FILE    PNG to write\n"
 		"      --camera X,Y,Z   eye position\n"
 		"      --look X,Y,Z     a point the camera looks at\n"
+		"      --roll DEG       bank about the viewing direction, positive to the right (default 0);\n"
+		"                       looking straight down or up, north is at the top at roll 0\n"
 		"      --fov DEG        vertical field of view (default 50)\n"
 		"      --size WxH       viewport (default 1280x720)\n"
 		"      --tau PX         screen-space error threshold in pixels (default 1)\n"
@@ -44,10 +46,10 @@ int cmd_snap(int argc, char **argv)
 		{ "wire", no_argument, NULL, 'w' },         { "depth", required_argument, NULL, 'D' },
 		{ "budget", required_argument, NULL, 'b' }, { "device", required_argument, NULL, 'd' },
 		{ "validation", no_argument, NULL, 'V' },   { "help", no_argument, NULL, 'h' },
-		{ 0 },
+		{ "roll", required_argument, NULL, 'r' },   { 0 },
 	};
 	const char *output = NULL, *depth_path = NULL, *device = NULL;
-	double cam[3], look[3], fov = 50.0, tau = 1.0;
+	double cam[3], look[3], fov = 50.0, tau = 1.0, roll = 0.0;
 	bool have_cam = false, have_look = false, wire = false, validation = false;
 	uint32_t width = 1280, height = 720, budget = 256;
 	int c;
@@ -64,6 +66,10 @@ int cmd_snap(int argc, char **argv)
 			if (!cli_parse_vec3("snap", "--look", optarg, look))
 				return EXIT_USAGE;
 			have_look = true;
+			break;
+		case 'r':
+			if (!cli_parse_double("snap", "--roll", optarg, &roll))
+				return EXIT_USAGE;
 			break;
 		case 'f':
 			if (!cli_parse_double("snap", "--fov", optarg, &fov))
@@ -113,6 +119,7 @@ int cmd_snap(int argc, char **argv)
 	struct relief_view view = {
 		.eye = { cam[0], cam[1], cam[2] },
 		.target = { look[0], look[1], look[2] },
+		.roll = roll * M_PI / 180.0,
 		.fovy = fov * M_PI / 180.0,
 		.width = width,
 		.height = height,

@@ -131,6 +131,11 @@ vkcheck snap-zero-size 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look
 expect_text snap-zero-size-named "--size"
 vkcheck snap-same-point 2 "$relief" snap "$tmp/ps.relief" --camera 5,5,100 --look 5,5,100 -o "$tmp/x.png"
 expect_text snap-same-point-named "look point"
+vkcheck snap-bad-roll 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --roll inf -o "$tmp/x.png"
+expect_text snap-bad-roll-named "--roll"
+# straight down (north up) and banked views render
+vkcheck snap-nadir 0 "$relief" snap "$tmp/ps.relief" --camera 128480,79200,9000 --look 128480,79200,0 --size 48x32 -o "$tmp/nadir.png"
+vkcheck snap-roll 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --roll -30 --size 48x32 -o "$tmp/roll.png"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"

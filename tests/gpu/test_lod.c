@@ -1,6 +1,7 @@
 /* Compute LOD: the GPU selection equals the CPU reference (common/lod.c) on the same
  * camera, over poses that stress it (grazing, inside the terrain, far away, looking at a
  * patch corner). Validation layer on, zero messages. */
+#include <assert.h>
 #include <errno.h>
 #include <stdbool.h>
 #include <math.h>
@@ -94,11 +95,16 @@ static void test_gpu_matches_cpu(void **state)
 		{ { 128480, 79200, 3000 }, { 130000, 80000, 3000 }, 1.0 },   /* inside the mountain */
 		{ { -900000, 80000, 9000 }, { 80000, 80000, 0 }, 4.0 },      /* far outside */
 		{ { 40960, 40960, 2000 }, { 40960 + 100, 40960 - 100, 1500 }, 8.0 },
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 }, 1.0 },  /* banked right (rolls_deg) */
+		{ { 81920, 81920, 30000 }, { 81920, 81920, 0 }, 1.0 },      /* straight down, rolled */
 	};
+	const double rolls_deg[] = { 0, 0, 0, 0, 0, 0, 35, -120 };
+	static_assert(sizeof(rolls_deg) / sizeof(rolls_deg[0]) == sizeof(poses) / sizeof(poses[0]), "a roll per pose");
 	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
 		struct relief_view v = {
 			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
 			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
+			.roll = rolls_deg[p] * M_PI / 180,
 			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = poses[p].tau,
 		};
 		struct relief_terrain_stats st;
@@ -239,7 +245,9 @@ static struct relief_view pose_view(const struct pose *p)
 	};
 }
 
-static void watertight_and_error_bound(enum test_dem dem, const struct pose *poses, size_t n_poses)
+/* rolls_deg: relief_view.roll of each pose in degrees, or NULL for none. */
+static void watertight_and_error_bound(enum test_dem dem, const struct pose *poses, const double *rolls_deg,
+                                       size_t n_poses)
 {
 	struct bound_scene b;
 	bound_open(&b, dem);
@@ -249,6 +257,7 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 	const double taus[] = { 1.0, 4.0 };
 	for (size_t p = 0; p < n_poses; p++) {
 		struct relief_view v = pose_view(&poses[p]);
+		v.roll = rolls_deg ? rolls_deg[p] * M_PI / 180 : 0.0;
 		struct relief_terrain_stats st;
 		render(&s, &v, ref, &st);
 		uint32_t ref_patches = st.patches;
@@ -369,7 +378,7 @@ static void test_watertight_and_error_bound_puget(void **state)
 		{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
 		{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
 	};
-	watertight_and_error_bound(DEM_PUGET, poses, sizeof(poses) / sizeof(poses[0]));
+	watertight_and_error_bound(DEM_PUGET, poses, NULL, sizeof(poses) / sizeof(poses[0]));
 }
 
 static void test_watertight_and_error_bound_alps(void **state)
@@ -380,7 +389,63 @@ static void test_watertight_and_error_bound_alps(void **state)
 		{ { 30000, 30000, 9000 }, { 30100, 30200, 3000 } },    /* steep look down onto the massif */
 		{ { 23731, 23731, 5600 }, { 40000, 40000, 2500 } },    /* eye above a patch corner */
 	};
-	watertight_and_error_bound(DEM_ALPS, poses, sizeof(poses) / sizeof(poses[0]));
+	watertight_and_error_bound(DEM_ALPS, poses, NULL, sizeof(poses) / sizeof(poses[0]));
+}
+
+/* Banked and straight-down cameras (relief_view.roll, relief_view_axes()): watertight and
+ * within tau like any other view. */
+static void test_banked_and_nadir_views(void **state)
+{
+	const struct pose poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },   /* banked right, towards Rainier */
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },       /* grazing, on its left wing */
+		{ { 128480, 79200, 9000 }, { 128480, 79200, 0 } },      /* straight down on the summit */
+		{ { 81920, 81920, 6000 }, { 81920, 81920, 0 } },        /* straight down on a patch corner */
+	};
+	const double rolls_deg[] = { 35, -90, 0, 150 };
+	watertight_and_error_bound(DEM_PUGET, poses, rolls_deg, sizeof(poses) / sizeof(poses[0]));
+}
+
+/* Roll turns the picture about its centre: a camera rolled by 180 degrees shows the same
+ * frame upside down (pixel (x, y) at (W-1-x, H-1-y)); the rotation maps pixel centres onto
+ * pixel centres and keeps the frustum, so the same patches are drawn and depths agree
+ * except where a triangle edge passes through a pixel centre (the rasteriser's tie rule is
+ * not symmetric). A right bank (positive roll) raises the horizon on the right. */
+static void test_roll_turns_picture(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, DEM_PUGET);
+	const struct pose level = { { 20000, 20000, 2500 }, { 60000, 60000, 2500 } };
+	struct relief_view v = pose_view(&level);
+	v.tau = 1;
+	struct relief_terrain_stats st0, st1;
+	render(&b.s, &v, b.ref, &st0);
+	v.roll = M_PI;
+	render(&b.s, &v, b.lod, &st1);
+	assert_int_equal(st0.patches, st1.patches);
+	uint32_t terrain = 0, differ = 0;
+	for (int y = 0; y < BH; y++)
+		for (int x = 0; x < BW; x++) {
+			float a = b.ref[y * BW + x], c = b.lod[(BH - 1 - y) * BW + (BW - 1 - x)];
+			terrain += a > 0.0f;
+			differ += (a > 0.0f) != (c > 0.0f) || fabsf(a - c) > 1e-3f * fmaxf(a, c);
+		}
+	print_message("roll 180: %u of %u terrain pixels differ from the level frame turned over\n", differ, terrain);
+	assert_true(terrain > BW * BH / 4);
+	assert_true(differ <= terrain / 200);
+	/* Right bank by 20 degrees: the first terrain row from the top, right column above the left. */
+	v.roll = 20 * M_PI / 180;
+	render(&b.s, &v, b.lod, &st1);
+	int top[2] = { BH, BH };
+	for (int side = 0; side < 2; side++) {
+		int x = side ? BW - 1 : 0;
+		for (int y = BH - 1; y >= 0; y--)
+			if (b.lod[y * BW + x] > 0.0f)
+				top[side] = y;
+	}
+	print_message("right bank: horizon at row %d on the left, %d on the right\n", top[0], top[1]);
+	assert_true(top[1] + 20 < top[0]);
+	bound_close(&b);
 }
 
 /* A frozen level of detail (relief_draw_options.lod_view): drawn from its own camera it is
@@ -712,7 +777,9 @@ static void test_view_check(void **state)
 	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
 	assert_non_null(strstr(why, "look point"));
 	v = good;
-	v.target = (struct relief_vec3){ 0, 0, 0 }; /* straight down */
+	v.target = (struct relief_vec3){ 0, 0, 0 }; /* straight down: north at the top */
+	assert_int_equal(relief_view_check(&v, &why), 0);
+	v.roll = NAN;
 	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
 	v = good;
 	v.tau = 0;
@@ -722,15 +789,76 @@ static void test_view_check(void **state)
 	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
 }
 
+static double vec_dot(struct relief_vec3 a, struct relief_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+static void assert_vec_near(struct relief_vec3 a, double x, double y, double z)
+{
+	assert_true(fabs(a.x - x) < 1e-12 && fabs(a.y - y) < 1e-12 && fabs(a.z - z) < 1e-12);
+}
+
+/* relief_view_axes(): orthonormal and right-handed (right x up = -fwd, the camera looking
+ * down its -z) for oblique, near-vertical and vertical views and any roll; the documented
+ * conventions for roll and for straight down / up. */
+static void test_view_axes(void **state)
+{
+	const double dirs[][3] = { { 1, 2, -0.5 }, { 0, 0, -1 }, { 0, 0, 1 }, { 1e-12, 0, -1 }, { 0, 1e-7, -1 },
+	                           { -3, 0.1, 2 }, { 0, 1, 0 } };
+	const double rolls[] = { 0, 0.3, -2, M_PI, 7.5 };
+	for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++)
+		for (size_t k = 0; k < sizeof(rolls) / sizeof(rolls[0]); k++) {
+			struct relief_view v = { .eye = { 500000, 5000000, 100 }, .roll = rolls[k] };
+			v.target = (struct relief_vec3){ v.eye.x + dirs[i][0], v.eye.y + dirs[i][1], v.eye.z + dirs[i][2] };
+			struct relief_vec3 f, r, u;
+			assert_true(relief_view_axes(&v, &f, &r, &u));
+			assert_true(fabs(vec_dot(f, f) - 1) < 1e-12 && fabs(vec_dot(r, r) - 1) < 1e-12 &&
+			            fabs(vec_dot(u, u) - 1) < 1e-12);
+			assert_true(fabs(vec_dot(f, r)) < 1e-12 && fabs(vec_dot(f, u)) < 1e-12 && fabs(vec_dot(r, u)) < 1e-12);
+			struct relief_vec3 ru = relief_vec3_cross(r, u);
+			assert_vec_near(ru, -f.x, -f.y, -f.z);
+		}
+	struct relief_vec3 f, r, u;
+	/* Looking north, level: east on the right, up is up; banked right by 30 degrees, the
+	 * right axis dips and the up axis leans east. */
+	struct relief_view v = { .eye = { 0, 0, 0 }, .target = { 0, 10, 0 } };
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, 1, 0, 0);
+	assert_vec_near(u, 0, 0, 1);
+	v.roll = M_PI / 6;
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, cos(M_PI / 6), 0, -0.5);
+	assert_vec_near(u, 0.5, 0, cos(M_PI / 6));
+	/* Straight down: a map, north up and east right; straight up: north up, east left. */
+	v = (struct relief_view){ .eye = { 0, 0, 100 }, .target = { 0, 0, 0 } };
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, 1, 0, 0);
+	assert_vec_near(u, 0, 1, 0);
+	v.target.z = 200;
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, -1, 0, 0);
+	assert_vec_near(u, 0, 1, 0);
+	/* Tilted a little towards north (beyond the nadir cone): the same picture as nadir. */
+	v.target = (struct relief_vec3){ 0, 1e-6, 0 };
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_true(r.x > 1 - 1e-9 && u.y > 1 - 1e-9);
+	v.target = v.eye;
+	assert_false(relief_view_axes(&v, &f, &r, &u));
+	v.target.x = 1;
+	v.roll = INFINITY;
+	assert_false(relief_view_axes(&v, &f, &r, &u));
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
 		cmocka_unit_test(test_view_check),
+		cmocka_unit_test(test_view_axes),
 		cmocka_unit_test(test_gpu_matches_cpu),
 		cmocka_unit_test(test_watertight_and_error_bound_puget),
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_sealed_borders),
 		cmocka_unit_test(test_edge_curtain),
+		cmocka_unit_test(test_banked_and_nadir_views),
+		cmocka_unit_test(test_roll_turns_picture),
 		cmocka_unit_test(test_frozen_lod),
 		cmocka_unit_test(test_sealed_corners),
 		cmocka_unit_test(test_ridge_above_measuring_points),
