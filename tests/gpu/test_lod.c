@@ -448,6 +448,131 @@ static void test_roll_turns_picture(void **state)
 	bound_close(&b);
 }
 
+/* Marks id, its ancestors, and every non-empty child of each ancestor: the layers a view
+ * drawing id needs (a split requests all four children, drawn or culled). */
+static void mark_closure(const struct relief_file *f, uint32_t id, uint8_t *need)
+{
+	uint32_t l, px, py;
+	assert_true(relief_patch_coords(&f->layout, id, &l, &px, &py));
+	need[id] = 1;
+	while (l > 0) {
+		l--, px /= 2, py /= 2;
+		uint32_t parent = relief_patch_id(l, px, py);
+		need[parent] = 1;
+		for (uint32_t k = 0; k < 4; k++) {
+			uint32_t c = relief_patch_id(l + 1, 2 * px + (k & 1), 2 * py + (k >> 1));
+			struct relief_patch_record r;
+			relief_file_record(f, c, &r);
+			if (!(r.flags & RELIEF_PATCH_EMPTY))
+				need[c] = 1;
+		}
+	}
+}
+
+/* Draws views[0..n) once each per tick, all with the tick's frame number, until a tick in
+ * which none asks for a patch; the last depth image of each view goes to depth[i]. */
+static void draw_ticks(struct scene *s, struct relief_terrain_view **tv, const struct relief_view *views, size_t n,
+                       float **depth, uint64_t *frame)
+{
+	for (int tick = 0; tick < 60; tick++, (*frame)++) {
+		uint32_t asked = 0;
+		for (size_t i = 0; i < n; i++) {
+			struct relief_terrain_stats st;
+			assert_int_equal(relief_patch_cache_update(s->cache, *frame) >= 0, 1);
+			assert_int_equal(relief_terrain_draw(s->terrain, tv[i], &views[i], &s->target, *frame, NULL, &st), 0);
+			asked += st.requests;
+			if (depth)
+				memcpy(depth[i], s->target.depth_readback.map, sizeof(float) * BW * BH);
+		}
+		if (!asked)
+			return;
+		/* -ENOSPC: some patches wait for layers that become free in a later tick. */
+		int ret = relief_patch_cache_flush(s->cache, *frame);
+		assert_true(ret == 0 || ret == -ENOSPC);
+	}
+	fail_msg("the views still ask for patches after 60 ticks");
+}
+
+/* Two views share one cache (the daemon's case: several clients, one terrain cache). Drawn
+ * alternately until neither asks for more, each frame equals bit for bit what the view
+ * draws alone in a cache of its own. Also when the cache has only 2 layers more than the
+ * two views need together and a third view, elsewhere, filled it first: the third view's
+ * patches are evicted to make room, never a patch either view drew in the last tick. */
+static void test_views_share_cache(void **state)
+{
+	const struct pose poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },  /* towards Mt Rainier */
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing from the south-west */
+		{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },       /* the north-west corner: fills */
+	};
+	struct relief_view views[3];
+	for (int i = 0; i < 3; i++) {
+		views[i] = pose_view(&poses[i]);
+		views[i].tau = i == 1 ? 2.0 : 1.0;
+	}
+	views[1].roll = 20 * M_PI / 180;
+	float *alone[2], *shared[2];
+	struct scene s;
+	scene_open(&s, DEM_PUGET, 1.0, BW, BH);
+	const uint32_t n = s.f->hdr.patch_count;
+	uint8_t *need = calloc(n, 1);
+	uint32_t *ids = malloc(4 * n);
+	uint64_t frame = 1;
+	for (int i = 0; i < 2; i++) {
+		alone[i] = malloc(sizeof(float) * BW * BH);
+		shared[i] = malloc(sizeof(float) * BW * BH);
+		if (i) { /* a fresh cache and view for the second */
+			scene_close(&s);
+			scene_open(&s, DEM_PUGET, 1.0, BW, BH);
+		}
+		draw_ticks(&s, &s.view, &views[i], 1, &alone[i], &frame);
+		uint32_t drawn = relief_terrain_view_drawn(s.view, ids, n);
+		for (uint32_t k = 0; k < drawn; k++)
+			mark_closure(s.f, ids[k], need);
+	}
+	uint32_t needed = 0;
+	for (uint32_t id = 0; id < n; id++)
+		needed += need[id];
+	scene_close(&s);
+	for (int tight = 0; tight < 2; tight++) {
+		struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = tight ? needed + 2 : 0 };
+		scene_open(&s, DEM_PUGET, 1.0, BW, BH);
+		relief_terrain_view_destroy(s.view); /* the same scene around a cache with these options */
+		relief_terrain_destroy(s.terrain);
+		relief_patch_cache_destroy(s.cache);
+		assert_int_equal(relief_patch_cache_create(vk, s.f, &co, &gpu_test_log, &s.cache), 0);
+		assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
+		struct relief_terrain_view *tv[3];
+		for (int i = 0; i < 3; i++)
+			assert_int_equal(relief_terrain_view_create(s.terrain, &tv[i]), 0);
+		s.view = tv[0];
+		if (tight)
+			draw_ticks(&s, &tv[2], &views[2], 1, NULL, &frame);
+		draw_ticks(&s, tv, views, 2, shared, &frame);
+		struct relief_patch_cache_stats cs;
+		relief_patch_cache_stats(s.cache, &cs);
+		uint32_t differ[2];
+		for (int i = 0; i < 2; i++)
+			differ[i] = (uint32_t)(memcmp(alone[i], shared[i], sizeof(float) * BW * BH) != 0);
+		print_message("%s cache (%u layers, the two views need %u): %llu evicted, frames %s / %s\n",
+		              tight ? "tight" : "roomy", cs.layers, needed, (unsigned long long)cs.evicted,
+		              differ[0] ? "differ" : "equal", differ[1] ? "differ" : "equal");
+		assert_int_equal(differ[0] + differ[1], 0);
+		if (tight)
+			assert_true(cs.layers == needed + 2 && cs.evicted > 0);
+		relief_terrain_view_destroy(tv[1]);
+		relief_terrain_view_destroy(tv[2]);
+		scene_close(&s);
+	}
+	for (int i = 0; i < 2; i++) {
+		free(alone[i]);
+		free(shared[i]);
+	}
+	free(need);
+	free(ids);
+	gpu_test_assert_clean(vk);
+}
+
 /* A frozen level of detail (relief_draw_options.lod_view): drawn from its own camera it is
  * the normal frame bit for bit; drawn from a camera 60 m further along the flight it keeps
  * exactly that frame's patches and tessellation (the same primitive count) and stays
@@ -859,6 +984,7 @@ int main(void)
 		cmocka_unit_test(test_edge_curtain),
 		cmocka_unit_test(test_banked_and_nadir_views),
 		cmocka_unit_test(test_roll_turns_picture),
+		cmocka_unit_test(test_views_share_cache),
 		cmocka_unit_test(test_frozen_lod),
 		cmocka_unit_test(test_sealed_corners),
 		cmocka_unit_test(test_ridge_above_measuring_points),
