@@ -406,7 +406,7 @@ int bench_lod(int argc, char **argv)
 		size_t at = (size_t)i * runs * per_run, count = runs * per_run;
 		double *m = ms + at;
 		res[i].ms_median = bench_median(m, count);
-		res[i].ms_p95 = m[(size_t)ceil(0.95 * count) - 1]; /* sorted by bench_median */
+		res[i].ms_p95 = bench_quantile(m, count, 0.95);
 		res[i].select_ms = bench_median(sel + at, count);
 		res[i].lod_ms = bench_median(lod + at, count);
 		if (json) {

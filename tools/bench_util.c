@@ -1,3 +1,4 @@
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +25,13 @@ double bench_median(double *v, size_t n)
 {
 	qsort(v, n, sizeof(double), cmp_double);
 	return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double bench_quantile(double *v, size_t n, double q)
+{
+	qsort(v, n, sizeof(double), cmp_double);
+	size_t k = (size_t)ceil(q * n);
+	return v[k ? k - 1 : 0];
 }
 
 const char *bench_cpu_name(void)

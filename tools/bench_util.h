@@ -9,6 +9,9 @@ struct relief_file;
 double bench_now(void);
 /* Median of n values (sorts them). */
 double bench_median(double *v, size_t n);
+/* The q-quantile (0 < q <= 1) of n >= 1 values, the smallest value with at least q n of
+ * them at or below it (sorts them). */
+double bench_quantile(double *v, size_t n, double q);
 /* Patches with a stream (not empty): the ones a decoder decodes. */
 uint32_t bench_decoded_patches(const struct relief_file *f);
 /* "model name" from /proc/cpuinfo, or "unknown CPU". */

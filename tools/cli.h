@@ -43,3 +43,4 @@ int cmd_unpack(int argc, char **argv);
 int cmd_info(int argc, char **argv);
 int cmd_bench(int argc, char **argv);
 int cmd_snap(int argc, char **argv);
+int cmd_fly(int argc, char **argv);

@@ -11,7 +11,8 @@ static const struct relief_command commands[] = {
 	{ "unpack", "write the reconstructed heights of one level", cmd_unpack },
 	{ "info", "describe a .relief file", cmd_info },
 	{ "snap", "render one frame of a .relief file headless", cmd_snap },
-	{ "bench", "measure the codec (and later decoding and LOD) with JSON output", cmd_bench },
+	{ "fly", "fly a camera along a track through a cold GPU cache and report the frames", cmd_fly },
+	{ "bench", "measure the codec, GPU decoding and the LOD, with JSON output", cmd_bench },
 	{ "hello", "render a displaced, tessellated test grid headless to a PNG", cmd_hello },
 };
 

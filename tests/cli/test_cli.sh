@@ -136,6 +136,23 @@ expect_text snap-bad-roll-named "--roll"
 # straight down (north up) and banked views render
 vkcheck snap-nadir 0 "$relief" snap "$tmp/ps.relief" --camera 128480,79200,9000 --look 128480,79200,0 --size 48x32 -o "$tmp/nadir.png"
 vkcheck snap-roll 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --roll -30 --size 48x32 -o "$tmp/roll.png"
+# relief fly: a short default flight from a cold cache, a track with two channels, bad tracks
+vkcheck fly 0 "$relief" fly "$tmp/ps.relief" --seconds 0.1 --size 64x36 --json
+expect_text fly-fields '"frames":7,"channels":1,"width":64,"height":36,"tau_px":1,"fps":60,'
+expect_text fly-incomplete '"frames_incomplete":'
+printf '# t x y z heading pitch roll\n0 60000 40000 3000 45 -10 0\n1 61000 41000 3000 90 -90 30\n' >"$tmp/good.track"
+vkcheck fly-track 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 2 --channels 2 --size 48x32 --out "$tmp/fly"
+expect_text fly-summary "3 frames of 2 channel(s)"
+[ "$(ls "$tmp/fly" | wc -l)" -eq 6 ] || { echo "FAIL fly frames written: $(ls "$tmp/fly")"; fails=$((fails + 1)); }
+printf '0 60000 40000 3000 45 -10 0\n0 61000 41000 3000 90 -10 0\n' >"$tmp/bad.track"
+check fly-bad-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp/bad.track"
+expect_text fly-bad-track-named "bad.track: line 2: time 0 does not increase"
+check fly-missing-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp/none.track"
+expect_text fly-missing-track-named "none.track: cannot open"
+check fly-bad-fps 2 "$relief" fly "$tmp/ps.relief" --fps 0
+expect_text fly-bad-fps-named "--fps"
+check fly-bad-channels 2 "$relief" fly "$tmp/ps.relief" --channels 9
+expect_text fly-bad-channels-named "--channels"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"

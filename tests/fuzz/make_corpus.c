@@ -159,5 +159,17 @@ int main(int argc, char **argv)
 		snprintf(path, sizeof(path), "sidecar%zu.ini", i);
 		put(out, "sidecar", path, sidecars[i], strlen(sidecars[i]));
 	}
+	const char *tracks[] = {
+		"# t x y z heading pitch roll\n0 60000 40000 3000 45 -10 0\n5 61000 41000 3000 90 -10 30\n"
+		"10 62500 41000 2500 135 -90 0\n",
+		"0,1,2,3,4,5,6\r\n1.5,1,2,3,4,5,6 # comment\r\n",
+		"0 1 2 3 4 5\n",
+		"0 1 2 3 4 5 6\n0 1 2 3 4 5 6\n",
+		"0 1 2 3 4 95 6\n1 1e999 nan inf -inf 0x10 1e-320\n",
+	};
+	for (size_t i = 0; i < sizeof(tracks) / sizeof(tracks[0]); i++) {
+		snprintf(path, sizeof(path), "track%zu.txt", i);
+		put(out, "track", path, tracks[i], strlen(tracks[i]));
+	}
 	return 0;
 }

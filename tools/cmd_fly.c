@@ -1,0 +1,323 @@
+/* relief fly FILE.relief [--track FILE] ...: an image generator's loop, in-process. A camera
+ * (or several side by side: channels) flies along a track through one patch cache that
+ * starts cold. Each frame takes only what the decoder has finished
+ * (relief_patch_cache_update() never waits) and draws at once; where a patch is still on
+ * its way, its resident parent is drawn. Reports what frames cost and how often, and for
+ * how long, they showed less detail than the view asked for. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_util.h"
+#include "cli.h"
+#include "format.h"
+#include "lod.h"
+#include "patch_cache.h"
+#include "terrain.h"
+#include "track.h"
+#include "vk.h"
+
+#define MAX_CHANNELS 8
+#define MAX_FRAMES 1000000u
+
+static void fly_usage(FILE *f)
+{
+	fprintf(f,
+		"usage: relief fly FILE.relief [options]\n"
+		"Flies a camera along a track through a cold GPU patch cache: every frame draws at once\n"
+		"with what is resident (a missing patch's parent stands in) and the frames are reported.\n"
+		"  --track FILE       keys 't x y z heading pitch roll' (seconds, world metres, degrees;\n"
+		"                     heading clockwise from north, pitch up, roll right bank), one per\n"
+		"                     line, '#' comments; default: 20 s straight and low across the middle\n"
+		"  --seconds S        fly this long from the track's start (default: the whole track)\n"
+		"  --fps HZ           simulation frame rate (default 60)\n"
+		"  --channels N       N views side by side, each a field of view wide, 1-%d (default 1)\n"
+		"  --size WxH         per channel (default 640x360)\n"
+		"  --fov DEG          vertical field of view (default 50)\n"
+		"  --tau PX           screen-space error threshold in pixels (default 1)\n"
+		"  --budget MIB       GPU memory for the patch cache (default 256)\n"
+		"  --workers N        entropy-decoding threads (default 1)\n"
+		"  --out DIR          write every frame: DIR/frame-NNNNN[-cK].png\n"
+		"  --json             one JSON record instead of the text summary\n"
+		"      --device DEV   Vulkan device: name substring, deviceUUID or render node\n"
+		"      --validation   enable the Khronos validation layer\n",
+		MAX_CHANNELS);
+}
+
+/* 20 s at 250 m/s, north-east across the middle, looking ahead and down (the flight of
+ * relief bench lod, flown continuously). */
+static int default_track(const struct relief_header *h, struct track *t)
+{
+	double ex = h->spacing_x * (h->width - 1), ey = h->spacing_y * (h->height - 1);
+	double x0 = h->origin_x + 0.30 * ex, y0 = h->origin_y - 0.70 * ey;
+	double heading = atan2(ex, ey), z = h->height_min + 0.8 * (h->height_max - h->height_min) + 100.0;
+	const double speed = 250.0, seconds = 20.0, pitch = -16.7;
+	t->keys = malloc(2 * sizeof(*t->keys));
+	if (!t->keys)
+		return -ENOMEM;
+	t->n = 2;
+	t->keys[0] = (struct track_key){ 0, x0, y0, z, heading * 180.0 / M_PI, pitch, 0 };
+	t->keys[1] = (struct track_key){ seconds, x0 + speed * seconds * sin(heading), y0 + speed * seconds * cos(heading),
+	                                 z, heading * 180.0 / M_PI, pitch, 0 };
+	return 0;
+}
+
+struct fly_stats {
+	double *wall_ms, *update_ms, *gpu_ms, *triangles;
+	uint32_t incomplete, first_complete, last_incomplete;
+};
+
+int cmd_fly(int argc, char **argv)
+{
+	static const struct option opts[] = {
+		{ "track", required_argument, NULL, 'T' },   { "seconds", required_argument, NULL, 'S' },
+		{ "fps", required_argument, NULL, 'F' },     { "channels", required_argument, NULL, 'C' },
+		{ "size", required_argument, NULL, 's' },    { "fov", required_argument, NULL, 'f' },
+		{ "tau", required_argument, NULL, 't' },     { "budget", required_argument, NULL, 'b' },
+		{ "workers", required_argument, NULL, 'w' }, { "out", required_argument, NULL, 'o' },
+		{ "json", no_argument, NULL, 'J' },          { "device", required_argument, NULL, 'd' },
+		{ "validation", no_argument, NULL, 'V' },    { "help", no_argument, NULL, 'h' },
+		{ 0 },
+	};
+	const char *track_path = NULL, *out_dir = NULL, *device = NULL;
+	double seconds = -1, fps = 60, fov = 50, tau = 1;
+	uint32_t channels = 1, width = 640, height = 360, budget = 256, workers = 1;
+	bool json = false, validation = false;
+	int c;
+	opterr = 0;
+	while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
+		switch (c) {
+		case 'T': track_path = optarg; break;
+		case 'S':
+			if (!cli_parse_double("fly", "--seconds", optarg, &seconds))
+				return EXIT_USAGE;
+			break;
+		case 'F':
+			if (!cli_parse_double("fly", "--fps", optarg, &fps))
+				return EXIT_USAGE;
+			break;
+		case 'C':
+			if (!cli_parse_u32("fly", "--channels", optarg, 1, MAX_CHANNELS, &channels))
+				return EXIT_USAGE;
+			break;
+		case 's':
+			if (!cli_parse_size("fly", "--size", optarg, &width, &height))
+				return EXIT_USAGE;
+			break;
+		case 'f':
+			if (!cli_parse_double("fly", "--fov", optarg, &fov))
+				return EXIT_USAGE;
+			break;
+		case 't':
+			if (!cli_parse_double("fly", "--tau", optarg, &tau))
+				return EXIT_USAGE;
+			break;
+		case 'b':
+			if (!cli_parse_u32("fly", "--budget", optarg, 16, 1048576, &budget))
+				return EXIT_USAGE;
+			break;
+		case 'w':
+			if (!cli_parse_u32("fly", "--workers", optarg, 1, RELIEF_PATCH_CACHE_MAX_WORKERS, &workers))
+				return EXIT_USAGE;
+			break;
+		case 'o': out_dir = optarg; break;
+		case 'J': json = true; break;
+		case 'd': device = optarg; break;
+		case 'V': validation = true; break;
+		case 'h': fly_usage(stdout); return 0;
+		default: return cli_option_error("fly", c, argv);
+		}
+	}
+	if (argc - optind != 1) {
+		fprintf(stderr, "relief fly: expected one FILE.relief (see 'relief fly --help')\n");
+		return EXIT_USAGE;
+	}
+	if (!(fps >= 1 && fps <= 1000)) {
+		fprintf(stderr, "relief fly: --fps: %g is not within [1, 1000] frames per second\n", fps);
+		return EXIT_USAGE;
+	}
+	if (seconds != -1 && !(seconds >= 0)) {
+		fprintf(stderr, "relief fly: --seconds: %g is negative\n", seconds);
+		return EXIT_USAGE;
+	}
+	const char *path = argv[optind];
+	char err[512];
+	struct track track = { 0 };
+	if (track_path && track_load(track_path, &track, err, sizeof(err)) < 0) {
+		fprintf(stderr, "relief fly: %s: %s\n", track_path, err);
+		return EXIT_USAGE;
+	}
+	struct relief_file *f;
+	if (relief_file_open(path, &f, err, sizeof(err)) < 0) {
+		fprintf(stderr, "relief fly: %s: %s\n", path, err);
+		track_finish(&track);
+		return 1;
+	}
+	const struct relief_header *h = &f->hdr;
+	int status = 1, ret = 0;
+	if (!track_path && (ret = default_track(h, &track)) < 0) {
+		fprintf(stderr, "relief fly: %s\n", strerror(-ret));
+		relief_file_close(f);
+		return 1;
+	}
+	double t0 = track.keys[0].t, length = track.keys[track.n - 1].t - t0;
+	if (seconds < 0 || seconds > length)
+		seconds = length;
+	double nf = floor(seconds * fps) + 1;
+	if (nf > MAX_FRAMES) {
+		fprintf(stderr, "relief fly: %.0f frames; at most %u (shorten --seconds or lower --fps)\n", nf, MAX_FRAMES);
+		track_finish(&track);
+		relief_file_close(f);
+		return EXIT_USAGE;
+	}
+	const uint32_t frames = (uint32_t)nf;
+	/* Far plane beyond anything on the terrain seen from anywhere within its reach. */
+	double ex = h->spacing_x * (h->width - 1), ey = h->spacing_y * (h->height - 1), ez = h->height_max - h->height_min;
+	double reach = sqrt(ex * ex + ey * ey + ez * ez);
+	struct relief_view base = {
+		.fovy = fov * M_PI / 180.0, .width = width, .height = height, .tau = tau,
+	};
+	/* Check the camera parameters once, on the first pose, before any GPU work. */
+	struct track_key k;
+	track_at(&track, t0, &k);
+	track_key_view(&k, &base);
+	base.znear = 1.0;
+	base.zfar = 4.0 * reach + 4.0 * fabs(k.z - h->height_min) + 1000.0;
+	const char *why;
+	if (relief_view_check(&base, &why) < 0) {
+		fprintf(stderr, "relief fly: bad camera: %s\n", why);
+		track_finish(&track);
+		relief_file_close(f);
+		return EXIT_USAGE;
+	}
+	const double hfov = 2.0 * atan(tan(0.5 * base.fovy) * width / height);
+
+	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log };
+	struct relief_vk *vk = NULL;
+	struct relief_vk_target target = { 0 };
+	struct relief_patch_cache *cache = NULL;
+	struct relief_terrain *terrain = NULL;
+	struct relief_terrain_view *tv[MAX_CHANNELS] = { 0 };
+	struct relief_patch_cache_options co = { .budget_bytes = (uint64_t)budget << 20, .workers = workers };
+	struct fly_stats s = {
+		.wall_ms = malloc(sizeof(double) * frames), .update_ms = malloc(sizeof(double) * frames),
+		.gpu_ms = malloc(sizeof(double) * frames), .triangles = malloc(sizeof(double) * frames),
+		.first_complete = UINT32_MAX, .last_incomplete = UINT32_MAX,
+	};
+	char *png = out_dir ? malloc(strlen(out_dir) + 64) : NULL;
+	if (!s.wall_ms || !s.update_ms || !s.gpu_ms || !s.triangles || (out_dir && !png)) {
+		fprintf(stderr, "relief fly: out of memory\n");
+		goto out;
+	}
+	if ((ret = relief_vk_create(&vo, &vk)) < 0 || (ret = relief_vk_target_init(vk, &target, width, height)) < 0 ||
+	    (ret = relief_patch_cache_create(vk, f, &co, &cli_log, &cache)) < 0 ||
+	    (ret = relief_terrain_create(vk, f, cache, &target, &terrain)) < 0) {
+		fprintf(stderr, "relief fly: GPU setup failed: %s\n", strerror(-ret));
+		goto out;
+	}
+	for (uint32_t ch = 0; ch < channels; ch++)
+		if ((ret = relief_terrain_view_create(terrain, &tv[ch])) < 0) {
+			fprintf(stderr, "relief fly: GPU setup failed: %s\n", strerror(-ret));
+			goto out;
+		}
+	for (uint32_t i = 0; i < frames; i++) {
+		uint64_t frame = i + 1;
+		track_at(&track, t0 + i / fps, &k);
+		struct relief_view centre = base;
+		track_key_view(&k, &centre);
+		double w0 = bench_now(), png_s = 0;
+		if ((ret = relief_patch_cache_update(cache, frame)) < 0) {
+			fprintf(stderr, "relief fly: frame %u: patch cache: %s\n", i, strerror(-ret));
+			goto out;
+		}
+		double w1 = bench_now(), gpu = 0, tri = 0;
+		uint32_t requests = 0;
+		for (uint32_t ch = 0; ch < channels; ch++) {
+			struct relief_view v;
+			track_channel_view(&centre, (ch - 0.5 * (channels - 1)) * hfov, &v);
+			struct relief_terrain_stats st;
+			if ((ret = relief_terrain_draw(terrain, tv[ch], &v, &target, frame, NULL, &st)) < 0) {
+				fprintf(stderr, "relief fly: frame %u, channel %u: drawing failed: %s\n", i, ch, strerror(-ret));
+				goto out;
+			}
+			gpu += st.gpu_ns / 1e6;
+			tri += (double)st.triangles;
+			requests += st.requests;
+			if (out_dir) {
+				double p0 = bench_now();
+				sprintf(png, channels > 1 ? "%s/frame-%05u-c%u.png" : "%s/frame-%05u.png", out_dir, i, ch);
+				if ((ret = cli_make_parent_dir(png)) < 0 ||
+				    (ret = png_write_rgba(png, target.color_readback.map, width, height)) < 0) {
+					fprintf(stderr, "relief fly: cannot write %s: %s\n", png, strerror(-ret));
+					goto out;
+				}
+				png_s += bench_now() - p0;
+			}
+		}
+		s.wall_ms[i] = (bench_now() - w0 - png_s) * 1e3;
+		s.update_ms[i] = (w1 - w0) * 1e3;
+		s.gpu_ms[i] = gpu;
+		s.triangles[i] = tri;
+		if (requests) {
+			s.incomplete++;
+			s.last_incomplete = i;
+		} else if (s.first_complete == UINT32_MAX) {
+			s.first_complete = i;
+		}
+	}
+	struct relief_patch_cache_stats cs;
+	relief_patch_cache_stats(cache, &cs);
+	double wall_med = bench_median(s.wall_ms, frames), wall_p95 = bench_quantile(s.wall_ms, frames, 0.95);
+	double wall_max = s.wall_ms[frames - 1];
+	double upd_med = bench_median(s.update_ms, frames), upd_max = s.update_ms[frames - 1];
+	double gpu_med = bench_median(s.gpu_ms, frames), gpu_p95 = bench_quantile(s.gpu_ms, frames, 0.95);
+	double tri_med = bench_median(s.triangles, frames);
+	long first = s.first_complete == UINT32_MAX ? -1 : (long)s.first_complete;
+	long last = s.last_incomplete == UINT32_MAX ? -1 : (long)s.last_incomplete;
+	if (json) {
+		printf("{\"file\":");
+		cli_json_string(stdout, path);
+		printf(",\"frames\":%u,\"channels\":%u,\"width\":%u,\"height\":%u,\"tau_px\":%g,\"fps\":%g,\"seconds\":%g,"
+		       "\"wall_ms_median\":%.3f,\"wall_ms_p95\":%.3f,\"wall_ms_max\":%.3f,\"update_ms_median\":%.4f,"
+		       "\"update_ms_max\":%.4f,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,\"triangles_median\":%.0f,"
+		       "\"frames_incomplete\":%u,\"first_complete_frame\":%ld,\"last_incomplete_frame\":%ld,"
+		       "\"decoded\":%llu,\"evicted\":%llu,\"bad\":%llu,\"layers_used\":%u,\"layers\":%u,\"budget_mib\":%u,"
+		       "\"workers\":%u",
+		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
+		       gpu_med, gpu_p95, tri_med, s.incomplete, first, last, (unsigned long long)cs.decoded,
+		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
+		bench_json_machine(vk->props.deviceName);
+	} else {
+		printf("relief fly: %s, %u frames of %u channel(s) at %ux%u, tau %g px, %.2f s of track at %g Hz, on %s\n",
+		       path, frames, channels, width, height, tau, seconds, fps, vk->props.deviceName);
+		printf("  frame wall ms      median %.2f  p95 %.2f  max %.2f (drawing %u channel(s) and waiting for them)\n",
+		       wall_med, wall_p95, wall_max, channels);
+		printf("  cache update ms    median %.3f  max %.3f (never waits for a decode)\n", upd_med, upd_max);
+		printf("  GPU ms per frame   median %.2f  p95 %.2f; triangles median %.0f\n", gpu_med, gpu_p95, tri_med);
+		printf("  detail             %u of %u frames drew a parent for a missing patch; first complete frame %ld, "
+		       "last incomplete %ld\n", s.incomplete, frames, first, last);
+		printf("  cache              %llu patches decoded, %llu evicted, %llu bad; %u of %u layers used (%u MiB budget, "
+		       "%u worker(s))\n", (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
+		       (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
+	}
+	status = vk->validation && atomic_load(&vk->validation_messages) ? 1 : 0;
+out:
+	for (uint32_t ch = 0; ch < channels; ch++)
+		relief_terrain_view_destroy(tv[ch]);
+	relief_terrain_destroy(terrain);
+	relief_patch_cache_destroy(cache);
+	if (vk)
+		relief_vk_target_finish(vk, &target);
+	relief_vk_destroy(vk);
+	free(png);
+	free(s.wall_ms);
+	free(s.update_ms);
+	free(s.gpu_ms);
+	free(s.triangles);
+	track_finish(&track);
+	relief_file_close(f);
+	return status;
+}
