@@ -124,14 +124,15 @@ int track_load(const char *path, struct track *out, char *err, size_t errlen)
 		return -e;
 	}
 	char *buf = malloc(TRACK_MAX_BYTES + 1);
+	errno = 0;
 	size_t len = buf ? fread(buf, 1, TRACK_MAX_BYTES + 1, f) : 0;
 	int ret = 0;
 	if (!buf) {
 		ret = -ENOMEM;
 		snprintf(err, errlen, "out of memory");
 	} else if (ferror(f)) {
-		ret = -EIO;
-		snprintf(err, errlen, "read error");
+		ret = errno ? -errno : -EIO;
+		snprintf(err, errlen, "cannot read: %s", strerror(-ret));
 	} else if (len > TRACK_MAX_BYTES) {
 		ret = fail(err, errlen, "larger than %u MiB", TRACK_MAX_BYTES >> 20);
 	} else {

@@ -149,6 +149,8 @@ check fly-bad-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp/bad.track"
 expect_text fly-bad-track-named "bad.track: line 2: time 0 does not increase"
 check fly-missing-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp/none.track"
 expect_text fly-missing-track-named "none.track: cannot open"
+check fly-directory-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp"
+expect_text fly-directory-track-named "cannot read: Is a directory"
 check fly-bad-fps 2 "$relief" fly "$tmp/ps.relief" --fps 0
 expect_text fly-bad-fps-named "--fps"
 check fly-bad-channels 2 "$relief" fly "$tmp/ps.relief" --channels 9
