@@ -171,13 +171,17 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 	relief_view_matrix(v, vp);
 	uint32_t drawn = 0;
 	*n_want = 0;
+	/* Marks left on a patch by its parent, level by level (children have larger ids):
+	 * REACHABLE, every ancestor resident, visible and splitting with its children there;
+	 * WANTED, every ancestor visible and wanting to split (the tree drawn once everything
+	 * has arrived). Replaced by the result, 1 for drawn, once the patch is visited. */
+	enum { REACHABLE = 2, WANTED = 4 };
 	memset(draw, 0, lay->patch_count);
-	draw[0] = 2;
-	/* Level by level: a patch's "reachable" = every ancestor splits with its children there. */
+	draw[0] = REACHABLE | WANTED;
 	for (uint32_t id = 0; id < lay->patch_count; id++) {
 		uint32_t l, px, py;
 		relief_patch_coords(lay, id, &l, &px, &py);
-		bool reachable = draw[id] == 2; /* 2: marked by its parent (the root: above) */
+		uint8_t marks = draw[id];
 		draw[id] = 0;
 		struct relief_box box;
 		relief_patch_box(f, &o, id, &box);
@@ -187,27 +191,30 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
 		bool wish = l + 1 < lay->levels && wants_split(err, tau, split_prev[id]);
 		split_next[id] = wish;
-		if (!reachable || !resident[id] || relief_box_culled(vp, &box))
+		if (!(marks & WANTED))
+			continue; /* nor REACHABLE: a drawn patch's ancestors all want to split */
+		if (id != 0 && !(rec.flags & RELIEF_PATCH_EMPTY) && !resident[id] && *n_want < want_cap)
+			want[(*n_want)++] = id;
+		if (relief_box_culled(vp, &box))
 			continue;
-		bool children_there = true;
-		uint32_t child0 = 0;
+		bool reachable = (marks & REACHABLE) && resident[id];
 		if (wish) {
-			child0 = relief_patch_id(l + 1, 2 * px, 2 * py);
+			uint32_t child0 = relief_patch_id(l + 1, 2 * px, 2 * py);
+			bool children_there = true;
 			for (uint32_t k = 0; k < 4; k++) {
 				uint32_t c = child0 + (k & 1) + (k >> 1) * (1u << (l + 1));
 				struct relief_patch_record r;
 				relief_file_record(f, c, &r);
-				if (!(r.flags & RELIEF_PATCH_EMPTY) && !resident[c]) {
-					children_there = false;
-					if (*n_want < want_cap)
-						want[(*n_want)++] = c;
-				}
+				children_there = children_there && ((r.flags & RELIEF_PATCH_EMPTY) || resident[c]);
+				draw[c] = WANTED;
+			}
+			if (reachable && children_there) {
+				for (uint32_t k = 0; k < 4; k++)
+					draw[child0 + (k & 1) + (k >> 1) * (1u << (l + 1))] |= REACHABLE;
+				continue; /* the children draw this area */
 			}
 		}
-		if (wish && children_there) {
-			for (uint32_t k = 0; k < 4; k++)
-				draw[child0 + (k & 1) + (k >> 1) * (1u << (l + 1))] = 2;
-		} else {
+		if (reachable) {
 			draw[id] = 1;
 			drawn++;
 		}

@@ -98,8 +98,10 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
  * drawn (resident in the cache); `split_prev` / `split_next` are the view's hysteresis bits
  * (one byte per patch; next is written for every patch). Fills `draw[id]` (1 = draw) and
  * returns the number drawn. Patches outside the frustum are neither drawn nor split. `want`
- * receives up to want_cap children that should be resident
- * (their parent splits but not all its children are there), `*n_want` their count. */
+ * receives up to want_cap missing patches (not the root) of the tree the view draws once
+ * everything has arrived: every ancestor in the frustum and wanting to split, resident or
+ * not, so a cold cache learns the whole chain down to the finest patch in one frame. In id
+ * order (coarse first); `*n_want` is their count. */
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
                            const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw, uint32_t *want,
                            uint32_t want_cap, uint32_t *n_want);

@@ -7,6 +7,11 @@
 // not want to split or lacks children. Each invocation re-derives its ancestors' decisions,
 // so no invocation waits for another. Box, distance and error use the same float
 // arithmetic as the CPU, written `precise` so that no multiply-add is fused.
+// Requests look ahead: a missing patch is asked for when every ancestor is in the frustum
+// and wants to split, resident or not (it belongs to the tree this view draws once
+// everything has arrived), so a cold cache or a camera that jumps asks for the whole chain
+// down to the finest patch it needs in one frame, not one level per round trip. Each
+// request carries the patch's distance from the camera: nearest first.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
@@ -15,7 +20,7 @@ layout(std430, binding = 2) readonly buffer SplitPrev { uint split_prev[]; };
 layout(std430, binding = 3) writeonly buffer SplitNext { uint split_next[]; };
 layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint curtains; } counters;
-layout(std430, binding = 6) writeonly buffer Wants { uint want[]; };
+layout(std430, binding = 6) writeonly buffer Wants { uvec2 want[]; }; // id, distance (float bits)
 layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
@@ -94,31 +99,29 @@ void main()
 	bool wish = wants_split(l, id, d);
 	split_next[id] = wish ? 1u : 0u;
 
-	// Every ancestor must split with its children there (and be resident and visible).
+	// Drawn needs every ancestor resident, visible and splitting with its children there;
+	// wanted (requested when missing) needs every ancestor visible and wanting to split.
+	bool reachable = true;
 	for (uint a = 0u; a < l; a++) {
 		uint ax = px >> (l - a), ay = py >> (l - a), aid = first_id(a) + ay * (1u << a) + ax;
 		vec3 amin, amax;
 		box(a, ax, ay, aid, amin, amax);
-		if (layer_of[aid] < 0 || culled(amin, amax) || !wants_split(a, aid, distance_to(amin, amax)))
+		if (culled(amin, amax) || !wants_split(a, aid, distance_to(amin, amax)))
 			return;
 		uint c0 = first_id(a + 1u) + 2u * ay * (2u << a) + 2u * ax, row = 2u << a;
-		if (child_missing(c0) || child_missing(c0 + 1u) || child_missing(c0 + row) || child_missing(c0 + row + 1u))
-			return;
+		reachable = reachable && layer_of[aid] >= 0 && !child_missing(c0) && !child_missing(c0 + 1u) &&
+		            !child_missing(c0 + row) && !child_missing(c0 + row + 1u);
 	}
-	if (layer_of[id] < 0 || culled(bmin, bmax))
+	if (l > 0u && child_missing(id)) {
+		uint n = atomicAdd(counters.wants, 1u);
+		if (n < pc.want_cap)
+			want[n] = uvec2(id, floatBitsToUint(d));
+	}
+	if (!reachable || layer_of[id] < 0 || culled(bmin, bmax))
 		return;
 	if (wish) {
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
-		uint kids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u);
-		bool there = true;
-		for (int k = 0; k < 4; k++)
-			if (child_missing(kids[k])) {
-				there = false;
-				uint n = atomicAdd(counters.wants, 1u);
-				if (n < pc.want_cap)
-					want[n] = kids[k];
-			}
-		if (there)
+		if (!child_missing(c0) && !child_missing(c0 + 1u) && !child_missing(c0 + row) && !child_missing(c0 + row + 1u))
 			return; // the children draw this area
 	}
 	uint n = atomicAdd(counters.drawn, 1u);

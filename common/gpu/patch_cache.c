@@ -88,7 +88,8 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	c->children = calloc(c->count, sizeof(uint16_t));
 	c->pins = calloc(c->count, sizeof(uint16_t));
 	c->queued = calloc(c->count, 1);
-	if (!c->state || !c->layer || !c->last_used || !c->children || !c->pins || !c->queued)
+	c->queued_prio = calloc(c->count, sizeof(float));
+	if (!c->state || !c->layer || !c->last_used || !c->children || !c->pins || !c->queued || !c->queued_prio)
 		goto fail;
 	uint32_t drawable = 0;
 	for (uint32_t id = 0; id < c->count; id++) {
@@ -200,6 +201,7 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 	free(c->children);
 	free(c->pins);
 	free(c->queued);
+	free(c->queued_prio);
 	free(c->owner);
 	free(c->free_layers);
 	free(c->free_slots);
@@ -214,6 +216,30 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 
 /* ---- requests ---- */
 
+/* Under lock: pushes id with `priority`, then each ancestor still waiting for the worker
+ * again, strictly ahead of it: a child's symbols may be decoded while its parent is on its
+ * way, but the worker must take the ancestors first (a child's slot is held until its
+ * parent is resident). Entries left behind with a worse priority are skipped when they
+ * come up (patch_worker.c). */
+static int queue_push_with_ancestors(struct relief_patch_cache *c, uint32_t id, float priority)
+{
+	int ret = patch_queue_push(c, priority, id);
+	if (ret == 0) {
+		c->queued[id] = 1;
+		c->queued_prio[id] = priority;
+	}
+	float ahead = priority;
+	for (uint32_t a = id; ret == 0 && a != 0;) {
+		a = parent_of(c, a);
+		if (!c->queued[a])
+			break;
+		ahead = fminf(ahead - 1.0f, nextafterf(ahead, -INFINITY)); /* strictly ahead, any magnitude */
+		if (ahead < c->queued_prio[a] && (ret = patch_queue_push(c, ahead, a)) == 0)
+			c->queued_prio[a] = ahead;
+	}
+	return ret;
+}
+
 int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float priority)
 {
 	if (id >= c->count)
@@ -225,6 +251,15 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 		return -EIO;
 	case RELIEF_PATCH_ABSENT:
 		break;
+	case RELIEF_PATCH_QUEUED: {
+		/* Asked for again, more urgently (another view is nearer): served sooner. An
+		 * error here (no memory for the heap) leaves the earlier entry, still valid. */
+		pthread_mutex_lock(&c->lock);
+		if (c->queued[id] && priority < c->queued_prio[id])
+			queue_push_with_ancestors(c, id, priority);
+		pthread_mutex_unlock(&c->lock);
+		return 0;
+	}
 	default:
 		return 0;
 	}
@@ -238,23 +273,11 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 	}
 	c->state[id] = RELIEF_PATCH_QUEUED;
 	pthread_mutex_lock(&c->lock);
-	int ret = patch_queue_push(c, priority, id);
-	/* The child's symbols can be decoded while its parent is on its way; the worker must
-	 * still take the ancestors first (a child's slot is held until its parent is resident),
-	 * so those still in the heap are pushed again ahead of it (the stale entries are
-	 * skipped when they come up). */
-	float ahead = priority;
-	for (uint32_t a = id; ret == 0 && a != 0;) {
-		a = parent_of(c, a);
-		if (!c->queued[a])
-			break;
-		ahead = fminf(ahead - 1.0f, nextafterf(ahead, -INFINITY)); /* strictly ahead, any magnitude */
-		ret = patch_queue_push(c, ahead, a);
-	}
-	if (ret == 0) {
-		c->queued[id] = 1;
+	int ret = queue_push_with_ancestors(c, id, priority);
+	if (ret == 0)
 		pthread_cond_signal(&c->work);
-	}
+	else
+		c->queued[id] = 0;
 	pthread_mutex_unlock(&c->lock);
 	if (ret < 0) {
 		c->state[id] = RELIEF_PATCH_ABSENT;

@@ -92,7 +92,8 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 void relief_patch_cache_destroy(struct relief_patch_cache *c);
 
 /* Asks for patch id; a lower priority value is served first (e.g. the distance to the
- * closest camera). Returns 0 if it is resident or on its way (its parent must be resident
+ * closest camera; asked again with a lower value while it still waits for a worker, it is
+ * served by that one: with several views, the nearest decides). Returns 0 if it is resident or on its way (its parent must be resident
  * or on its way too: the worker then decodes the parent's symbols first and the GPU
  * reconstructs the child once the parent is resident), -EAGAIN if its parent is neither
  * (the parent is requested instead, more urgently), -ENOENT for a patch with nothing to

@@ -1,6 +1,7 @@
 /* The terrain renderer (see terrain.h). One descriptor set layout serves the three
  * pipelines (selection, draw records, drawing); each view has two sets that swap its
  * hysteresis buffers every frame. */
+#include <assert.h>
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -18,7 +19,12 @@
 #include "terrain.tese.spv.h"
 #include "terrain.vert.spv.h"
 
+/* Requests one view can make in a frame (id and distance each); the rest follow next frame. */
 #define WANT_CAP 1024
+struct want {
+	uint32_t id;
+	float distance; /* metres from the camera to the patch's box */
+};
 /* Tessellated vertices of one quad patch at most: factor 16 everywhere, (16 + 1)^2. */
 #define MAX_VERTICES_PER_QUAD 289u
 
@@ -271,7 +277,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->counters, sizeof(struct counters),
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->wants, 4 * WANT_CAP, storage, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->wants, sizeof(struct want) * WANT_CAP, storage, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_quads + 8, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
@@ -370,6 +376,12 @@ static void barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags
 {
 	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, sa, da };
 	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
+}
+
+static int want_cmp(const void *a, const void *b)
+{
+	uint32_t x = ((const struct want *)a)->id, y = ((const struct want *)b)->id;
+	return x < y ? -1 : x > y;
 }
 
 int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
@@ -522,14 +534,17 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	                      relief_vk_timer_ns(vk, &t->timer, 0, 2, &s.lod_ns) < 0 ||
 	                      relief_vk_timer_ns(vk, &t->timer, 0, 3, &s.gpu_ns) < 0))
 		s.select_ns = s.lod_ns = s.gpu_ns = 0;
-	/* Requests: coarser patches first (lower ids are coarser). */
-	const uint32_t *want = v->wants.map;
+	/* Requests, made in id order: coarser patches first (lower ids are coarser), so that a
+	 * parent is on its way before its child is asked for and a whole chain is accepted in
+	 * one frame. The cache serves the nearest first (its ancestors ahead of it). */
+	static_assert(WANT_CAP * sizeof(struct want) <= 16384, "the copy below lives on the stack");
+	struct want want[WANT_CAP];
 	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
-	for (uint32_t i = 0; i < n; i++) {
-		uint32_t l, px, py;
-		if (relief_patch_coords(&f->layout, want[i], &l, &px, &py))
-			relief_patch_cache_request(t->cache, want[i], (float)l);
-	}
+	memcpy(want, v->wants.map, n * sizeof(*want)); /* mapped memory may be uncached */
+	qsort(want, n, sizeof(*want), want_cmp);
+	for (uint32_t i = 0; i < n; i++)
+		if (want[i].id < f->hdr.patch_count)
+			relief_patch_cache_request(t->cache, want[i].id, want[i].distance);
 	if (st)
 		*st = s;
 	return 0;
@@ -541,5 +556,16 @@ uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t
 	uint32_t n = v->last_drawn < cap ? v->last_drawn : cap;
 	for (uint32_t i = 0; i < n; i++)
 		ids[i] = in[i].id;
+	return n;
+}
+
+uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
+{
+	const struct counters *c = v->counters.map;
+	const struct want *w = v->wants.map;
+	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
+	n = n < cap ? n : cap;
+	for (uint32_t i = 0; i < n; i++)
+		ids[i] = w[i].id;
 	return n;
 }

@@ -66,3 +66,6 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 
 /* The last frame's drawn patch ids (unordered), for tests; returns the count. */
 uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);
+/* The last frame's requests (patch ids, unordered; at most the frame's cap), for tests;
+ * returns the count. */
+uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

@@ -131,6 +131,61 @@ static void test_gpu_matches_cpu(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Requests look ahead: from a cold cache, the first frame asks for the whole tree the view
+ * draws once everything has arrived, down to the finest level (not one level per frame),
+ * and the GPU's requests equal the CPU reference's, there and with part of the tree
+ * resident. After one flush the next frame is complete. */
+static void test_requests_look_ahead(void **state)
+{
+	struct scene s;
+	scene_open(&s, DEM_PUGET, 1.0, 320, 180);
+	const uint32_t n = s.f->hdr.patch_count, levels = s.f->hdr.levels;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_cpu;
+	const struct { double eye[3], at[3]; } poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },   /* towards Mt Rainier */
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },       /* grazing, low */
+		{ { 150000, 20000, 2500 }, { 140000, 40000, 1000 } },   /* elsewhere: part of the tree there */
+	};
+	uint64_t frame = 1;
+	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+		struct relief_view v = {
+			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
+			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 1.0,
+		};
+		uint32_t was_resident = 0;
+		for (uint32_t id = 0; id < n; id++)
+			was_resident += resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
+		struct relief_terrain_stats st;
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, frame++, NULL, &st), 0);
+		uint32_t ng = relief_terrain_view_wants(s.view, gpu, n);
+		relief_lod_select(s.f, &v, resident, prev, next, draw, cpu, n, &n_cpu);
+		qsort(gpu, ng, 4, cmp_u32);
+		uint32_t finest = 0;
+		for (uint32_t k = 0; k < ng; k++) {
+			uint32_t l, px, py;
+			assert_true(relief_patch_coords(&s.f->layout, gpu[k], &l, &px, &py));
+			finest = l > finest ? l : finest;
+		}
+		print_message("pose %zu, %u patches resident: GPU asks for %u (finest level %u of %u), CPU for %u\n", p,
+		              was_resident, ng, finest, levels - 1, n_cpu);
+		assert_int_equal(ng, n_cpu);
+		assert_memory_equal(gpu, cpu, 4 * ng);
+		assert_true(ng > 0 && finest == levels - 1);
+		/* Everything asked for arrives; the next frame draws the whole tree. */
+		assert_int_equal(relief_patch_cache_flush(s.cache, frame), 0);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, frame++, NULL, &st), 0);
+		assert_int_equal(st.requests, 0);
+		/* The next pose starts from what this one left resident, with a fresh view. */
+		relief_terrain_view_destroy(s.view);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	}
+	free(resident); free(prev); free(next); free(draw); free(gpu); free(cpu);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* Renders v and copies out depth (Vulkan [0, 1]). Converges: draws until nothing is asked. */
 static void render_with(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts, float *depth,
                         struct relief_terrain_stats *st)
@@ -978,6 +1033,7 @@ int main(void)
 		cmocka_unit_test(test_view_check),
 		cmocka_unit_test(test_view_axes),
 		cmocka_unit_test(test_gpu_matches_cpu),
+		cmocka_unit_test(test_requests_look_ahead),
 		cmocka_unit_test(test_watertight_and_error_bound_puget),
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_sealed_borders),

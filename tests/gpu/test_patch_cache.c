@@ -369,10 +369,15 @@ static void test_priority_and_dedup(void **state)
 	assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
 	relief_patch_cache_request(c, 0, 0);
 	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
-	const float prio[5] = { 0, 40, 10, 30, 20 }; /* for ids 1..4 */
+	float prio[5] = { 0, 40, 10, 30, 20 }; /* for ids 1..4 */
 	for (int rep = 0; rep < 3; rep++)
 		for (uint32_t id = 1; id <= 4; id++)
 			assert_int_equal(relief_patch_cache_request(c, id, prio[id]), 0);
+	/* A second view, nearer to patch 3, asks for it again: it now comes before 2 and 4.
+	 * (With one staging slot the worker holds at most one patch until the first update.) */
+	assert_int_equal(relief_patch_cache_request(c, 3, 1), 0);
+	assert_int_equal(relief_patch_cache_request(c, 2, 50), 0); /* a farther view changes nothing */
+	prio[3] = 1;
 	uint32_t order[4], n = 0;
 	/* Bounded: a patch that never becomes resident fails the test instead of hanging it. */
 	for (int spins = 0; n < 4; spins++) {
