@@ -117,6 +117,11 @@ void main()
 		if (n < pc.want_cap)
 			want[n] = uvec2(id, floatBitsToUint(d));
 	}
+	// A wanted patch is in use even when not drawn (its siblings may still be missing): so
+	// that a cache short of layers does not evict it to make room for its siblings, and
+	// then again them for it, every frame.
+	if (layer_of[id] >= 0)
+		use_frame[id] = pc.frame;
 	if (!reachable || layer_of[id] < 0 || culled(bmin, bmax))
 		return;
 	if (wish) {
@@ -144,7 +149,6 @@ void main()
 	it.frac = pc.frac;
 	it.spacing = pc.spacing;
 	inst[n] = it;
-	use_frame[id] = pc.frame;
 	drawn[id] = 1u;
 	// Sides on the terrain's outer edge hang a curtain (the only skirts: inside, borders
 	// are sealed).

@@ -116,7 +116,7 @@ int cmd_fly(int argc, char **argv)
 				return EXIT_USAGE;
 			break;
 		case 'b':
-			if (!cli_parse_u32("fly", "--budget", optarg, 16, 1048576, &budget))
+			if (!cli_parse_u32("fly", "--budget", optarg, 1, 1048576, &budget))
 				return EXIT_USAGE;
 			break;
 		case 'w':

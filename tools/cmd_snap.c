@@ -86,7 +86,7 @@ int cmd_snap(int argc, char **argv)
 		case 'w': wire = true; break;
 		case 'D': depth_path = optarg; break;
 		case 'b':
-			if (!cli_parse_u32("snap", "--budget", optarg, 16, 1048576, &budget))
+			if (!cli_parse_u32("snap", "--budget", optarg, 1, 1048576, &budget))
 				return EXIT_USAGE;
 			break;
 		case 'd': device = optarg; break;

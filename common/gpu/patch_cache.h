@@ -81,8 +81,9 @@ struct relief_patch_pool {
 	/* int32[patch_count]: the layer of each resident patch, -1 otherwise; host-visible,
 	 * kept current by the cache, read by the LOD selection on the GPU. */
 	VkBuffer layer_table;
-	/* uint32[patch_count]: the last frame a view drew each patch, written by the LOD
-	 * selection on the GPU; eviction treats it like relief_patch_cache_touch(). */
+	/* uint32[patch_count]: the last frame a view wanted each resident patch (drew it, or
+	 * would once its siblings arrive), written by the LOD selection on the GPU; eviction
+	 * treats it like relief_patch_cache_touch(). */
 	VkBuffer use_table;
 };
 

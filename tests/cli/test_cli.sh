@@ -153,6 +153,8 @@ check fly-directory-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp"
 expect_text fly-directory-track-named "cannot read: Is a directory"
 check fly-bad-fps 2 "$relief" fly "$tmp/ps.relief" --fps 0
 expect_text fly-bad-fps-named "--fps"
+check fly-bad-budget 2 "$relief" fly "$tmp/ps.relief" --budget 0
+expect_text fly-bad-budget-named "--budget"
 check fly-bad-channels 2 "$relief" fly "$tmp/ps.relief" --channels 9
 expect_text fly-bad-channels-named "--channels"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"

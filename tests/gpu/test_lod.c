@@ -628,6 +628,68 @@ static void test_views_share_cache(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* A cache with half the layers a still view wants: it fills and then stays as it is. Every
+ * frame still asks for the rest and draws the resident parents in their place, but nothing
+ * is decoded or evicted again: a wanted patch counts as in use even while it cannot be
+ * drawn (its siblings missing), so patches are not evicted for their siblings and those
+ * again for them, frame after frame. (Negative control, run by hand: with only drawn
+ * patches marked in use, as before, the 60 frames decoded 167 patches into these 16
+ * layers, evicted 151, and the last frame drew the root alone.) */
+static void test_tight_cache_settles(void **state)
+{
+	struct scene s;
+	scene_open(&s, DEM_PUGET, 1.0, BW, BH);
+	const struct pose pose = { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } };
+	struct relief_view v = pose_view(&pose);
+	v.tau = 1;
+	float *depth = malloc(sizeof(float) * BW * BH);
+	uint64_t frame = 1;
+	draw_ticks(&s, &s.view, &v, 1, &depth, &frame);
+	const uint32_t n = s.f->hdr.patch_count;
+	uint8_t *need = calloc(n, 1);
+	uint32_t *ids = malloc(4 * n), drawn = relief_terrain_view_drawn(s.view, ids, n), needed = 0;
+	for (uint32_t k = 0; k < drawn; k++)
+		mark_closure(s.f, ids[k], need);
+	for (uint32_t id = 0; id < n; id++)
+		needed += need[id];
+	scene_close(&s);
+
+	scene_open(&s, DEM_PUGET, 1.0, BW, BH);
+	relief_terrain_view_destroy(s.view);
+	relief_terrain_destroy(s.terrain);
+	relief_patch_cache_destroy(s.cache);
+	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = needed / 2 };
+	assert_int_equal(relief_patch_cache_create(vk, s.f, &co, &gpu_test_log, &s.cache), 0);
+	assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
+	assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	uint64_t decoded[7] = { 0 }, evicted = 0;
+	struct relief_terrain_stats st = { 0 };
+	for (int f = 1; f <= 60; f++) {
+		int ret = relief_patch_cache_flush(s.cache, (uint64_t)f);
+		assert_true(ret == 0 || ret == -ENOSPC);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, (uint64_t)f, NULL, &st), 0);
+		if (f % 10 == 0) {
+			struct relief_patch_cache_stats cs;
+			relief_patch_cache_stats(s.cache, &cs);
+			decoded[f / 10] = cs.decoded;
+			evicted = cs.evicted;
+		}
+	}
+	print_message("%u layers for a view that wants %u: decoded after 10, 20, .. 60 frames: %llu %llu %llu %llu %llu "
+	              "%llu, %llu evicted, %u requests in the last frame, %u patches drawn\n", needed / 2, needed,
+	              (unsigned long long)decoded[1], (unsigned long long)decoded[2], (unsigned long long)decoded[3],
+	              (unsigned long long)decoded[4], (unsigned long long)decoded[5], (unsigned long long)decoded[6],
+	              (unsigned long long)evicted, st.requests, st.patches);
+	assert_true(st.requests > 0 && st.patches > 0);
+	assert_true(decoded[1] <= needed / 2 && decoded[6] == decoded[1]);
+	assert_int_equal(evicted, 0);
+	free(depth);
+	free(need);
+	free(ids);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* A frozen level of detail (relief_draw_options.lod_view): drawn from its own camera it is
  * the normal frame bit for bit; drawn from a camera 60 m further along the flight it keeps
  * exactly that frame's patches and tessellation (the same primitive count) and stays
@@ -1041,6 +1103,7 @@ int main(void)
 		cmocka_unit_test(test_banked_and_nadir_views),
 		cmocka_unit_test(test_roll_turns_picture),
 		cmocka_unit_test(test_views_share_cache),
+		cmocka_unit_test(test_tight_cache_settles),
 		cmocka_unit_test(test_frozen_lod),
 		cmocka_unit_test(test_sealed_corners),
 		cmocka_unit_test(test_ridge_above_measuring_points),
