@@ -2,8 +2,11 @@
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
 #include "terrain_draw.glsl"
-// One sun, a height ramp (water-level green to snow) and rock on steep slopes.
-layout(location = 0) in vec3 in_normal;
+// One sun, a height ramp (water-level green to snow) and rock on steep slopes. The normal
+// comes from the patch's normal map at this fragment (bilinear between the four samples
+// around it), not from the vertices: lighting keeps the full resolution of the data at any
+// tessellation level, and shows no triangles and does not change when a block's level
+// does (per-vertex normals did both).
 layout(location = 1) in float in_height;
 layout(location = 2) in vec2 in_s;
 layout(location = 3) flat in int in_layer;
@@ -19,7 +22,12 @@ void main()
 		out_color = vec4(0.05, 0.05, 0.05, 1.0);
 		return;
 	}
-	vec3 n = normalize(in_normal);
+	vec2 s = clamp(in_s, vec2(0.0), vec2(float(pc.P) - 1.0));
+	ivec2 i0 = min(ivec2(s), ivec2(int(pc.P) - 2)); // the cell holding s, within the patch
+	vec2 f = s - vec2(i0);
+	vec3 n00 = normal_load(i0, in_layer).xyz, n10 = normal_load(i0 + ivec2(1, 0), in_layer).xyz;
+	vec3 n01 = normal_load(i0 + ivec2(0, 1), in_layer).xyz, n11 = normal_load(i0 + ivec2(1, 1), in_layer).xyz;
+	vec3 n = normalize(mix(mix(n00, n10, f.x), mix(n01, n11, f.x), f.y));
 	float t = clamp((in_height - pc.hrange.x) / max(pc.hrange.y - pc.hrange.x, 1e-3), 0.0, 1.0);
 	vec3 low = vec3(0.27, 0.45, 0.22), mid = vec3(0.55, 0.50, 0.36), high = vec3(0.96, 0.96, 0.98);
 	vec3 albedo = t < 0.55 ? mix(low, mid, t / 0.55) : mix(mid, high, (t - 0.55) / 0.45);

@@ -13,7 +13,6 @@ layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
 layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_pack)
-layout(location = 0) out vec3 out_normal;
 layout(location = 1) out float out_height;
 layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
 layout(location = 3) flat out int out_layer;
@@ -38,7 +37,6 @@ void main()
 		if ((rec & 7u) != 0u)
 			h = sealed_side_height(it, si, ex ? (si.x == 0 ? 2u : 3u) : (si.y == 0 ? 0u : 1u), rec);
 	}
-	out_normal = normal_load(si, it.layer).xyz;
 	out_s = vec2(si);
 	out_layer = it.layer;
 	out_height = h;

@@ -25,6 +25,12 @@
  * The JSON also has the median and the largest per-pair value (popping_pair_median_px,
  * popping_pair_max_px): the average is made by a few pairs that catch a level switch of
  * a distant ridge, and a small change of the LOD moves it a lot (docs/benchmarks.md).
+ * shade_popping is the same comparison on the picture itself: the RMS over pixels showing
+ * terrain in both of the colour difference (RGB distance / sqrt 3, in 8-bit steps)
+ * between the two renders, averaged over the pairs; what a viewer sees change, lighting
+ * included, where popping_px is the surface alone. shade_err compares each frame's picture
+ * with the full-resolution render's the same way (RMS over all frames): what the level of
+ * detail costs in what a viewer sees, lighting included (docs/lod.md, shading).
  * GPU time: timestamps around LOD compute, drawing and copy-out, per frame; median and p95
  * over all frames of all runs, the runs taken in turn over the configurations. All LOD
  * compute (selection, draw records, tessellation factors) is lod_ms (JSON lod_ms_median),
@@ -58,6 +64,8 @@ struct result {
 	double ms_median, ms_p95, select_ms, lod_ms, triangles, patches, max_err, p999_err, rms_err, popping;
 	double camera_popping;
 	double popping_median, popping_max; /* over the pairs: the mean above is made by a few */
+	double shade_popping;               /* colour change of the LOD change alone, 8-bit steps */
+	double shade_err;                   /* colour difference from the full-resolution render */
 	uint64_t pixels, excluded; /* pixel-frames measured, and left out as reference noise */
 };
 
@@ -77,6 +85,10 @@ struct run {
 	/* |error| in px per frame and pixel of the reference render (NaN: no terrain), or NULL
 	 * while the reference itself is measured */
 	float *ref_err;
+	/* the reference render's pictures and depths per frame (RGBA8, reversed Z), for
+	 * shade_err */
+	uint8_t *ref_rgba;
+	float *ref_depth;
 };
 
 static double parse_list(const char *s, double *out, int cap, int *n)
@@ -153,6 +165,21 @@ static double error_change(const float *a, const float *b, size_t n)
 	return count ? sqrt(sum / count) : -1;
 }
 
+/* RMS over pixels where both depths show terrain of the RGB distance / sqrt(3) between two
+ * RGBA8 pictures; -1 if none. */
+static double colour_change(const uint8_t *a, const uint8_t *b, const float *da, const float *db, size_t n)
+{
+	double sum = 0;
+	uint64_t count = 0;
+	for (size_t k = 0; k < n; k++)
+		if (da[k] > 0.0f && db[k] > 0.0f) {
+			for (int c = 0; c < 3; c++)
+				sum += ((double)a[4 * k + c] - b[4 * k + c]) * ((double)a[4 * k + c] - b[4 * k + c]) / 3.0;
+			count++;
+		}
+	return count ? sqrt(sum / count) : -1;
+}
+
 /* Renders the flight once with configuration c; GPU and selection times of its frames go
  * to ms[], sel[] and lod[] (2 x frames each). With `analyse`, also the errors and popping. */
 static int measure(struct run *r, const struct config *c, bool analyse, double *ms, double *sel, double *lod,
@@ -160,12 +187,16 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 {
 	const uint32_t W = r->target.width, H = r->target.height, n = 2 * r->frames;
 	float *err = malloc(sizeof(float) * W * H), *prev = malloc(sizeof(float) * W * H);
-	float *frozen = malloc(sizeof(float) * W * H);
+	float *frozen = malloc(sizeof(float) * W * H), *frozen_depth = malloc(sizeof(float) * W * H);
+	uint8_t *frozen_rgba = malloc((size_t)4 * W * H);
 	double *pops = malloc(sizeof(double) * (r->frames ? r->frames : 1)); /* per pair */
 	struct error_stats a = { .hist = calloc(BINS, sizeof(uint64_t)) };
 	struct relief_terrain_view *tv = NULL;
-	int ret = err && prev && frozen && pops && a.hist ? relief_terrain_view_create(r->terrain, &tv) : -ENOMEM;
-	double tri = 0, patches = 0, pop = 0, camera_pop = 0;
+	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && a.hist
+	              ? relief_terrain_view_create(r->terrain, &tv)
+	              : -ENOMEM;
+	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
+	uint32_t shade_frames = 0;
 	uint32_t pairs = 0;
 	for (uint32_t i = 0; i < n && ret == 0; i++) {
 		struct relief_view view = r->views[i], *v = &view;
@@ -185,6 +216,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			if ((ret = relief_terrain_draw(r->terrain, tv, v, &r->target, 1001 + i, &o, &st)) < 0)
 				break;
 			frame_errors(r, c, v, i, frozen, NULL, NULL);
+			memcpy(frozen_depth, r->target.depth_readback.map, sizeof(float) * W * H);
+			memcpy(frozen_rgba, r->target.color_readback.map, (size_t)4 * W * H);
 		}
 		if ((ret = relief_terrain_draw(r->terrain, tv, v, &r->target, 1001 + i, &c->opts, &st)) < 0)
 			break;
@@ -196,11 +229,27 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		if (!analyse)
 			continue;
 		frame_errors(r, c, v, i, err, &a, res);
+		uint8_t *ref_rgba = r->ref_rgba + (size_t)i * 4 * W * H;
+		float *ref_depth = r->ref_depth + (size_t)i * W * H;
+		if (c->reference) {
+			memcpy(ref_rgba, r->target.color_readback.map, (size_t)4 * W * H);
+			memcpy(ref_depth, r->target.depth_readback.map, sizeof(float) * W * H);
+		} else {
+			double e = colour_change(ref_rgba, r->target.color_readback.map, ref_depth,
+			                         r->target.depth_readback.map, (size_t)W * H);
+			if (e >= 0) {
+				shade_sum += e * e;
+				shade_frames++;
+			}
+		}
 		if (i % 2 == 1) { /* the frame after a key pose: popping */
 			double d = error_change(frozen, err, (size_t)W * H), dc = error_change(prev, err, (size_t)W * H);
-			if (d >= 0 && dc >= 0) {
+			double ds = colour_change(frozen_rgba, r->target.color_readback.map, frozen_depth,
+			                          r->target.depth_readback.map, (size_t)W * H);
+			if (d >= 0 && dc >= 0 && ds >= 0) {
 				pop += d;
 				camera_pop += dc;
+				shade_pop += ds;
 				pops[pairs++] = d;
 			}
 		}
@@ -225,6 +274,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		res->rms_err = res->pixels ? sqrt(a.sum2 / res->pixels) : 0;
 		res->popping = pairs ? pop / pairs : 0;
 		res->camera_popping = pairs ? camera_pop / pairs : 0;
+		res->shade_popping = pairs ? shade_pop / pairs : 0;
+		res->shade_err = shade_frames ? sqrt(shade_sum / shade_frames) : 0;
 		res->popping_max = 0;
 		for (uint32_t k = 0; k < pairs; k++)
 			res->popping_max = fmax(res->popping_max, pops[k]);
@@ -235,6 +286,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	free(err);
 	free(prev);
 	free(frozen);
+	free(frozen_depth);
+	free(frozen_rgba);
 	free(pops);
 	return ret;
 }
@@ -339,9 +392,11 @@ int bench_lod(int argc, char **argv)
 	struct relief_patch_cache_options co = { .budget_bytes = 1ull << 30 };
 	r.views = calloc(2 * frames, sizeof(*r.views));
 	r.ref_err = malloc(sizeof(float) * 2 * frames * w * h);
+	r.ref_rgba = malloc((size_t)4 * 2 * frames * w * h);
+	r.ref_depth = malloc(sizeof(float) * 2 * frames * w * h);
 	relief_level_extent(&f->hdr, f->hdr.levels - 1, &r.fw, &r.fh);
 	finest = malloc(sizeof(float) * r.fw * r.fh);
-	if (!r.views || !r.ref_err || !finest || (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
+	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth || !finest || (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
 		fprintf(stderr, "relief bench lod: %s: cannot decode the finest level\n", path);
 		goto out;
 	}
@@ -414,10 +469,11 @@ int bench_lod(int argc, char **argv)
 			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,"
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
-			       "\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u",
+			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
-			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, (unsigned long long)res[i].pixels,
+			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, res[i].shade_popping, res[i].shade_err,
+			       (unsigned long long)res[i].pixels,
 			       (unsigned long long)res[i].excluded, per_run, runs, w, h);
 			bench_json_machine(r.vk->props.deviceName);
 		} else
@@ -437,6 +493,8 @@ out:
 	free(finest);
 	free(r.views);
 	free(r.ref_err);
+	free(r.ref_rgba);
+	free(r.ref_depth);
 	relief_file_close(f);
 	return status;
 }
