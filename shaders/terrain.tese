@@ -13,7 +13,7 @@ layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
 layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_pack)
-layout(location = 1) out float out_height;
+layout(location = 1) flat out float out_q2; // metres per quantum of the patch's heights
 layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
 layout(location = 3) flat out int out_layer;
 precise gl_Position; // shared border vertices get identical bits in both patches
@@ -39,7 +39,7 @@ void main()
 	}
 	out_s = vec2(si);
 	out_layer = it.layer;
-	out_height = h;
+	out_q2 = it.q2;
 	vec3 p = pos_of(it, si, h);
 	if (down > 0.0)
 		p.z -= down * it.skirt;
