@@ -94,11 +94,12 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c);
 
 /* Asks for patch id; a lower priority value is served first (e.g. the distance to the
  * closest camera; asked again with a lower value while it still waits for a worker, it is
- * served by that one: with several views, the nearest decides). Returns 0 if it is resident or on its way (its parent must be resident
- * or on its way too: the worker then decodes the parent's symbols first and the GPU
- * reconstructs the child once the parent is resident), -EAGAIN if its parent is neither
- * (the parent is requested instead, more urgently), -ENOENT for a patch with nothing to
- * draw, -EIO for a bad patch, -EINVAL for an id outside the tree. */
+ * served by that one: with several views, the nearest decides). Returns 0 if it is
+ * resident or on its way (its parent must be resident or on its way too: the worker then
+ * decodes the parent's symbols first and the GPU reconstructs the child once the parent
+ * is resident), -EAGAIN if its parent is neither (the parent is requested instead, more
+ * urgently), -ENOENT for a patch with nothing to draw, -EIO for a bad patch, -EINVAL for
+ * an id outside the tree. */
 int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float priority);
 /* Marks patch id as used by a view in `frame` (keeps it from eviction for keep_frames). */
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame);
