@@ -140,6 +140,7 @@ vkcheck snap-roll 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 -
 vkcheck fly 0 "$relief" fly "$tmp/ps.relief" --seconds 0.1 --size 64x36 --json
 expect_text fly-fields '"frames":7,"channels":1,"width":64,"height":36,"tau_px":1,"fps":60,'
 expect_text fly-incomplete '"frames_incomplete":'
+expect_text fly-latency '"first_complete_ms":'
 printf '# t x y z heading pitch roll\n0 60000 40000 3000 45 -10 0\n1 61000 41000 3000 90 -90 30\n' >"$tmp/good.track"
 vkcheck fly-track 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 2 --channels 2 --size 48x32 --out "$tmp/fly"
 expect_text fly-summary "3 frames of 2 channel(s)"
