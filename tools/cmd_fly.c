@@ -175,9 +175,15 @@ int cmd_fly(int argc, char **argv)
 		return EXIT_USAGE;
 	}
 	const uint32_t frames = (uint32_t)nf;
-	/* Far plane beyond anything on the terrain seen from anywhere within its reach. */
+	/* Far plane beyond the whole terrain seen from anywhere on the track: the distance to the
+	 * terrain's centre is convex along each straight segment, so the keys bound it. */
 	double ex = h->spacing_x * (h->width - 1), ey = h->spacing_y * (h->height - 1), ez = h->height_max - h->height_min;
-	double reach = sqrt(ex * ex + ey * ey + ez * ez);
+	double cx = h->origin_x + 0.5 * ex, cy = h->origin_y - 0.5 * ey, cz = 0.5 * (h->height_min + h->height_max);
+	double reach = sqrt(ex * ex + ey * ey + ez * ez), farthest = 0;
+	for (size_t i = 0; i < track.n; i++) {
+		const struct track_key *q = &track.keys[i];
+		farthest = fmax(farthest, sqrt((q->x - cx) * (q->x - cx) + (q->y - cy) * (q->y - cy) + (q->z - cz) * (q->z - cz)));
+	}
 	struct relief_view base = {
 		.fovy = fov * M_PI / 180.0, .width = width, .height = height, .tau = tau,
 	};
@@ -186,7 +192,7 @@ int cmd_fly(int argc, char **argv)
 	track_at(&track, t0, &k);
 	track_key_view(&k, &base);
 	base.znear = 1.0;
-	base.zfar = 4.0 * reach + 4.0 * fabs(k.z - h->height_min) + 1000.0;
+	base.zfar = 2.0 * (farthest + reach) + 1000.0; /* reversed Z keeps depth precise far away */
 	const char *why;
 	if (relief_view_check(&base, &why) < 0) {
 		fprintf(stderr, "relief fly: bad camera: %s\n", why);
