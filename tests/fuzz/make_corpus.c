@@ -22,6 +22,16 @@ static void put(const char *dir, const char *sub, const char *name, const void *
 	fclose(f);
 }
 
+/* Text seeds: DIR/SUB/SUB<i>.EXT for each string. */
+static void put_texts(const char *dir, const char *sub, const char *ext, const char *const *texts, size_t n)
+{
+	char name[256];
+	for (size_t i = 0; i < n; i++) {
+		snprintf(name, sizeof(name), "%s%zu.%s", sub, i, ext);
+		put(dir, sub, name, texts[i], strlen(texts[i]));
+	}
+}
+
 static void variants(const char *dir, const char *sub, const char *base, const uint8_t *data, size_t n)
 {
 	char name[256];
@@ -144,10 +154,7 @@ int main(int argc, char **argv)
 		"; comment\n[gpu]\ndevice = 0123456789abcdef0123456789abcdef\n[other]\nx = 1\n",
 		"[gpu]\ndecode_workers = 2\ndecode_workers = 08x\n",
 	};
-	for (size_t i = 0; i < sizeof(configs) / sizeof(configs[0]); i++) {
-		snprintf(path, sizeof(path), "config%zu.ini", i);
-		put(out, "config", path, configs[i], strlen(configs[i]));
-	}
+	put_texts(out, "config", "ini", configs, sizeof(configs) / sizeof(configs[0]));
 	const char *sidecars[] = {
 		"[import]\nscale = 0.1\nspacing = 160\n",
 		"[import]\nscale = 0.06646829938201\noffset = 454\nspacing = 92.7\nunits = ft\n",
@@ -155,10 +162,7 @@ int main(int argc, char **argv)
 		"[import]\nspacing = -3\nunits = yards\n",
 		"[other]\nscale = 1\n",
 	};
-	for (size_t i = 0; i < sizeof(sidecars) / sizeof(sidecars[0]); i++) {
-		snprintf(path, sizeof(path), "sidecar%zu.ini", i);
-		put(out, "sidecar", path, sidecars[i], strlen(sidecars[i]));
-	}
+	put_texts(out, "sidecar", "ini", sidecars, sizeof(sidecars) / sizeof(sidecars[0]));
 	const char *tracks[] = {
 		"# t x y z heading pitch roll\n0 60000 40000 3000 45 -10 0\n5 61000 41000 3000 90 -10 30\n"
 		"10 62500 41000 2500 135 -90 0\n",
@@ -167,9 +171,6 @@ int main(int argc, char **argv)
 		"0 1 2 3 4 5 6\n0 1 2 3 4 5 6\n",
 		"0 1 2 3 4 95 6\n1 1e999 nan inf -inf 0x10 1e-320\n",
 	};
-	for (size_t i = 0; i < sizeof(tracks) / sizeof(tracks[0]); i++) {
-		snprintf(path, sizeof(path), "track%zu.txt", i);
-		put(out, "track", path, tracks[i], strlen(tracks[i]));
-	}
+	put_texts(out, "track", "txt", tracks, sizeof(tracks) / sizeof(tracks[0]));
 	return 0;
 }
