@@ -14,7 +14,7 @@ layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
 layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_pack)
 layout(location = 1) flat out float out_q2; // metres per quantum of the patch's heights
-layout(location = 2) out vec2 out_s;          // patch sample coordinates, for validity
+layout(location = 2) out vec2 out_s;          // patch sample coordinates: validity, normal, height per fragment
 layout(location = 3) flat out int out_layer;
 precise gl_Position; // shared border vertices get identical bits in both patches
 void main()
