@@ -119,14 +119,20 @@ void relief_view_matrix(const struct relief_view *v, float out[16])
 	relief_view_matrix_from(v, v->eye, out);
 }
 
-void relief_view_matrix_from(const struct relief_view *v, struct relief_vec3 origin, float out[16])
+/* v's view-projection in double precision for positions relative to `origin`. */
+static struct relief_mat4 view_projection(const struct relief_view *v, struct relief_vec3 origin)
 {
-	struct relief_mat4 view, proj, vp;
+	struct relief_mat4 view, proj;
 	struct relief_vec3 f, r, u;
 	relief_view_axes(v, &f, &r, &u);
 	relief_mat4_look_at(relief_vec3_sub(v->eye, origin), relief_vec3_sub(v->target, origin), u, &view);
 	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
-	vp = relief_mat4_mul(&proj, &view);
+	return relief_mat4_mul(&proj, &view);
+}
+
+void relief_view_matrix_from(const struct relief_view *v, struct relief_vec3 origin, float out[16])
+{
+	struct relief_mat4 vp = view_projection(v, origin);
 	relief_mat4_to_float(&vp, out);
 }
 
@@ -243,12 +249,7 @@ struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int
 
 double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e)
 {
-	struct relief_mat4 view, proj, vp;
-	struct relief_vec3 f, r, u;
-	relief_view_axes(v, &f, &r, &u);
-	relief_mat4_look_at(v->eye, v->target, u, &view);
-	proj = relief_mat4_perspective_reversed(v->fovy, (double)v->width / v->height, v->znear, v->zfar);
-	vp = relief_mat4_mul(&proj, &view);
+	struct relief_mat4 vp = view_projection(v, (struct relief_vec3){ 0, 0, 0 });
 	double w0, w1;
 	struct relief_vec3 a = relief_mat4_transform(&vp, p, &w0);
 	struct relief_vec3 b = relief_mat4_transform(&vp, (struct relief_vec3){ p.x, p.y, p.z + e }, &w1);
