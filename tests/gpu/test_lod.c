@@ -28,7 +28,10 @@ struct scene {
 	struct relief_terrain_view *view;
 };
 
-static void scene_open_at(struct scene *s, enum test_dem d, double tol, uint32_t w, uint32_t h, double dx, double dy)
+/* A DEM packed at tolerance tol and moved by (dx, dy), in a 64 MiB cache of at most
+ * max_layers layers (0: as many as the budget holds), a w x h target and one view. */
+static void scene_open_at(struct scene *s, enum test_dem d, double tol, uint32_t w, uint32_t h, double dx, double dy,
+                          uint32_t max_layers)
 {
 	struct relief_dem dem;
 	test_dem_load(d, &dem);
@@ -39,7 +42,7 @@ static void scene_open_at(struct scene *s, enum test_dem d, double tol, uint32_t
 	relief_dem_finish(&dem);
 	char err[256];
 	assert_int_equal(relief_file_open_memory(s->img, s->size, &s->f, err, sizeof(err)), 0);
-	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20 };
+	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = max_layers };
 	assert_int_equal(relief_patch_cache_create(vk, s->f, &co, &gpu_test_log, &s->cache), 0);
 	assert_int_equal(relief_vk_target_init(vk, &s->target, w, h), 0);
 	assert_int_equal(relief_terrain_create(vk, s->f, s->cache, &s->target, &s->terrain), 0);
@@ -48,7 +51,7 @@ static void scene_open_at(struct scene *s, enum test_dem d, double tol, uint32_t
 
 static void scene_open(struct scene *s, enum test_dem d, double tol, uint32_t w, uint32_t h)
 {
-	scene_open_at(s, d, tol, w, h, 0, 0);
+	scene_open_at(s, d, tol, w, h, 0, 0, 0);
 }
 
 static void scene_close(struct scene *s)
@@ -503,25 +506,34 @@ static void test_roll_turns_picture(void **state)
 	bound_close(&b);
 }
 
-/* Marks id, its ancestors, and every non-empty child of each ancestor: the layers a view
- * drawing id needs (a split requests all four children, drawn or culled). */
-static void mark_closure(const struct relief_file *f, uint32_t id, uint8_t *need)
+/* Marks in need[] the layers the scene's view needs for what it drew last frame: each drawn
+ * patch, its ancestors, and every non-empty child of each ancestor (a split requests all
+ * four children, drawn or culled). Returns how many patches need[] marks. */
+static uint32_t mark_needed(const struct scene *s, uint8_t *need)
 {
-	uint32_t l, px, py;
-	assert_true(relief_patch_coords(&f->layout, id, &l, &px, &py));
-	need[id] = 1;
-	while (l > 0) {
-		l--, px /= 2, py /= 2;
-		uint32_t parent = relief_patch_id(l, px, py);
-		need[parent] = 1;
-		for (uint32_t k = 0; k < 4; k++) {
-			uint32_t c = relief_patch_id(l + 1, 2 * px + (k & 1), 2 * py + (k >> 1));
-			struct relief_patch_record r;
-			relief_file_record(f, c, &r);
-			if (!(r.flags & RELIEF_PATCH_EMPTY))
-				need[c] = 1;
+	const struct relief_file *f = s->f;
+	const uint32_t n = f->hdr.patch_count;
+	uint32_t *ids = malloc(4 * n), drawn = relief_terrain_view_drawn(s->view, ids, n), count = 0;
+	for (uint32_t k = 0; k < drawn; k++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&f->layout, ids[k], &l, &px, &py));
+		need[ids[k]] = 1;
+		while (l > 0) {
+			l--, px /= 2, py /= 2;
+			need[relief_patch_id(l, px, py)] = 1;
+			for (uint32_t c4 = 0; c4 < 4; c4++) {
+				uint32_t c = relief_patch_id(l + 1, 2 * px + (c4 & 1), 2 * py + (c4 >> 1));
+				struct relief_patch_record r;
+				relief_file_record(f, c, &r);
+				if (!(r.flags & RELIEF_PATCH_EMPTY))
+					need[c] = 1;
+			}
 		}
 	}
+	for (uint32_t id = 0; id < n; id++)
+		count += need[id];
+	free(ids);
+	return count;
 }
 
 /* Draws views[0..n) once each per tick, all with the tick's frame number, until a tick in
@@ -569,9 +581,8 @@ static void test_views_share_cache(void **state)
 	float *alone[2], *shared[2];
 	struct scene s;
 	scene_open(&s, DEM_PUGET, 1.0, BW, BH);
-	const uint32_t n = s.f->hdr.patch_count;
-	uint8_t *need = calloc(n, 1);
-	uint32_t *ids = malloc(4 * n);
+	uint8_t *need = calloc(s.f->hdr.patch_count, 1);
+	uint32_t needed = 0;
 	uint64_t frame = 1;
 	for (int i = 0; i < 2; i++) {
 		alone[i] = malloc(sizeof(float) * BW * BH);
@@ -581,26 +592,14 @@ static void test_views_share_cache(void **state)
 			scene_open(&s, DEM_PUGET, 1.0, BW, BH);
 		}
 		draw_ticks(&s, &s.view, &views[i], 1, &alone[i], &frame);
-		uint32_t drawn = relief_terrain_view_drawn(s.view, ids, n);
-		for (uint32_t k = 0; k < drawn; k++)
-			mark_closure(s.f, ids[k], need);
+		needed = mark_needed(&s, need);
 	}
-	uint32_t needed = 0;
-	for (uint32_t id = 0; id < n; id++)
-		needed += need[id];
 	scene_close(&s);
 	for (int tight = 0; tight < 2; tight++) {
-		struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = tight ? needed + 2 : 0 };
-		scene_open(&s, DEM_PUGET, 1.0, BW, BH);
-		relief_terrain_view_destroy(s.view); /* the same scene around a cache with these options */
-		relief_terrain_destroy(s.terrain);
-		relief_patch_cache_destroy(s.cache);
-		assert_int_equal(relief_patch_cache_create(vk, s.f, &co, &gpu_test_log, &s.cache), 0);
-		assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
-		struct relief_terrain_view *tv[3];
-		for (int i = 0; i < 3; i++)
+		scene_open_at(&s, DEM_PUGET, 1.0, BW, BH, 0, 0, tight ? needed + 2 : 0);
+		struct relief_terrain_view *tv[3] = { s.view };
+		for (int i = 1; i < 3; i++)
 			assert_int_equal(relief_terrain_view_create(s.terrain, &tv[i]), 0);
-		s.view = tv[0];
 		if (tight)
 			draw_ticks(&s, &tv[2], &views[2], 1, NULL, &frame);
 		draw_ticks(&s, tv, views, 2, shared, &frame);
@@ -624,7 +623,6 @@ static void test_views_share_cache(void **state)
 		free(shared[i]);
 	}
 	free(need);
-	free(ids);
 	gpu_test_assert_clean(vk);
 }
 
@@ -645,23 +643,11 @@ static void test_tight_cache_settles(void **state)
 	float *depth = malloc(sizeof(float) * BW * BH);
 	uint64_t frame = 1;
 	draw_ticks(&s, &s.view, &v, 1, &depth, &frame);
-	const uint32_t n = s.f->hdr.patch_count;
-	uint8_t *need = calloc(n, 1);
-	uint32_t *ids = malloc(4 * n), drawn = relief_terrain_view_drawn(s.view, ids, n), needed = 0;
-	for (uint32_t k = 0; k < drawn; k++)
-		mark_closure(s.f, ids[k], need);
-	for (uint32_t id = 0; id < n; id++)
-		needed += need[id];
+	uint8_t *need = calloc(s.f->hdr.patch_count, 1);
+	uint32_t needed = mark_needed(&s, need);
 	scene_close(&s);
 
-	scene_open(&s, DEM_PUGET, 1.0, BW, BH);
-	relief_terrain_view_destroy(s.view);
-	relief_terrain_destroy(s.terrain);
-	relief_patch_cache_destroy(s.cache);
-	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = needed / 2 };
-	assert_int_equal(relief_patch_cache_create(vk, s.f, &co, &gpu_test_log, &s.cache), 0);
-	assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
-	assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	scene_open_at(&s, DEM_PUGET, 1.0, BW, BH, 0, 0, needed / 2);
 	uint64_t decoded[7] = { 0 }, evicted = 0;
 	struct relief_terrain_stats st = { 0 };
 	for (int f = 1; f <= 60; f++) {
@@ -685,7 +671,6 @@ static void test_tight_cache_settles(void **state)
 	assert_int_equal(evicted, 0);
 	free(depth);
 	free(need);
-	free(ids);
 	scene_close(&s);
 	gpu_test_assert_clean(vk);
 }
@@ -953,7 +938,7 @@ static void test_huge_coordinates(void **state)
 	uint8_t *frames[2];
 	for (int k = 0; k < 2; k++) {
 		struct scene s;
-		scene_open_at(&s, DEM_ALPS, 1.0, W, H, k ? dx : 0, k ? dy : 0);
+		scene_open_at(&s, DEM_ALPS, 1.0, W, H, k ? dx : 0, k ? dy : 0, 0);
 		double ox = k ? dx : 0, oy = k ? dy : 0;
 		struct relief_view v = {
 			.eye = { ox + 20000, oy + 20000, 5200 }, .target = { ox + 30000, oy + 40000, 3500 },
