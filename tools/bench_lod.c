@@ -50,6 +50,7 @@
 #include "format.h"
 #include "lod.h"
 #include "patch_cache.h"
+#include "renderer.h"
 #include "terrain.h"
 #include "vk.h"
 
@@ -74,11 +75,8 @@ struct result {
 #define REF_NOISE_PX 0.1
 
 struct run {
-	struct relief_vk *vk;
+	struct tool_renderer gpu;
 	const struct relief_file *f;
-	struct relief_patch_cache *cache;
-	struct relief_vk_target target;
-	struct relief_terrain *terrain;
 	const float *finest;
 	uint32_t fw, fh, frames;
 	struct relief_view *views;
@@ -120,8 +118,8 @@ enum { BINS = 10001 };
 static void frame_errors(struct run *r, const struct config *c, const struct relief_view *v, uint32_t f, float *err,
                          struct error_stats *a, struct result *res)
 {
-	const uint32_t W = r->target.width, H = r->target.height;
-	const float *depth = r->target.depth_readback.map;
+	const uint32_t W = r->gpu.target.width, H = r->gpu.target.height;
+	const float *depth = r->gpu.target.depth_readback.map;
 	float *ref = r->ref_err + (size_t)f * W * H;
 	for (uint32_t y = 0; y < H; y++)
 		for (uint32_t x = 0; x < W; x++) {
@@ -185,7 +183,7 @@ static double colour_change(const uint8_t *a, const uint8_t *b, const float *da,
 static int measure(struct run *r, const struct config *c, bool analyse, double *ms, double *sel, double *lod,
                    struct result *res)
 {
-	const uint32_t W = r->target.width, H = r->target.height, n = 2 * r->frames;
+	const uint32_t W = r->gpu.target.width, H = r->gpu.target.height, n = 2 * r->frames;
 	float *err = malloc(sizeof(float) * W * H), *prev = malloc(sizeof(float) * W * H);
 	float *frozen = malloc(sizeof(float) * W * H), *frozen_depth = malloc(sizeof(float) * W * H);
 	uint8_t *frozen_rgba = malloc((size_t)4 * W * H);
@@ -193,7 +191,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	struct error_stats a = { .hist = calloc(BINS, sizeof(uint64_t)) };
 	struct relief_terrain_view *tv = NULL;
 	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && a.hist
-	              ? relief_terrain_view_create(r->terrain, &tv)
+	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
 	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
 	uint32_t shade_frames = 0;
@@ -203,7 +201,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		view.tau = c->param > 0 && c->opts.fine == RELIEF_FINE_ERRORS ? c->param : 1.0; /* the tessellator's tau */
 		struct relief_terrain_stats st;
 		/* One untimed frame settles the view's hysteresis on the first pose. */
-		if (i == 0 && (ret = relief_terrain_draw(r->terrain, tv, v, &r->target, 1000, &c->opts, &st)) < 0)
+		if (i == 0 && (ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1000, &c->opts, &st)) < 0)
 			break;
 		if (analyse && i % 2 == 1) {
 			/* Untimed: this camera with the previous frame's LOD. The view's selection state
@@ -213,13 +211,13 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			before.tau = view.tau;
 			struct relief_draw_options o = c->opts;
 			o.lod_view = &before;
-			if ((ret = relief_terrain_draw(r->terrain, tv, v, &r->target, 1001 + i, &o, &st)) < 0)
+			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0)
 				break;
 			frame_errors(r, c, v, i, frozen, NULL, NULL);
-			memcpy(frozen_depth, r->target.depth_readback.map, sizeof(float) * W * H);
-			memcpy(frozen_rgba, r->target.color_readback.map, (size_t)4 * W * H);
+			memcpy(frozen_depth, r->gpu.target.depth_readback.map, sizeof(float) * W * H);
+			memcpy(frozen_rgba, r->gpu.target.color_readback.map, (size_t)4 * W * H);
 		}
-		if ((ret = relief_terrain_draw(r->terrain, tv, v, &r->target, 1001 + i, &c->opts, &st)) < 0)
+		if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &c->opts, &st)) < 0)
 			break;
 		ms[i] = st.gpu_ns / 1e6;
 		sel[i] = st.select_ns / 1e6;
@@ -232,11 +230,11 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		uint8_t *ref_rgba = r->ref_rgba + (size_t)i * 4 * W * H;
 		float *ref_depth = r->ref_depth + (size_t)i * W * H;
 		if (c->reference) {
-			memcpy(ref_rgba, r->target.color_readback.map, (size_t)4 * W * H);
-			memcpy(ref_depth, r->target.depth_readback.map, sizeof(float) * W * H);
+			memcpy(ref_rgba, r->gpu.target.color_readback.map, (size_t)4 * W * H);
+			memcpy(ref_depth, r->gpu.target.depth_readback.map, sizeof(float) * W * H);
 		} else {
-			double e = colour_change(ref_rgba, r->target.color_readback.map, ref_depth,
-			                         r->target.depth_readback.map, (size_t)W * H);
+			double e = colour_change(ref_rgba, r->gpu.target.color_readback.map, ref_depth,
+			                         r->gpu.target.depth_readback.map, (size_t)W * H);
 			if (e >= 0) {
 				shade_sum += e * e;
 				shade_frames++;
@@ -244,8 +242,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		}
 		if (i % 2 == 1) { /* the frame after a key pose: popping */
 			double d = error_change(frozen, err, (size_t)W * H), dc = error_change(prev, err, (size_t)W * H);
-			double ds = colour_change(frozen_rgba, r->target.color_readback.map, frozen_depth,
-			                          r->target.depth_readback.map, (size_t)W * H);
+			double ds = colour_change(frozen_rgba, r->gpu.target.color_readback.map, frozen_depth,
+			                          r->gpu.target.depth_readback.map, (size_t)W * H);
 			if (d >= 0 && dc >= 0 && ds >= 0) {
 				pop += d;
 				camera_pop += dc;
@@ -396,21 +394,20 @@ int bench_lod(int argc, char **argv)
 	r.ref_depth = malloc(sizeof(float) * 2 * frames * w * h);
 	relief_level_extent(&f->hdr, f->hdr.levels - 1, &r.fw, &r.fh);
 	finest = malloc(sizeof(float) * r.fw * r.fh);
-	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth || !finest || (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
+	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth || !finest ||
+	    (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
 		fprintf(stderr, "relief bench lod: %s: cannot decode the finest level\n", path);
 		goto out;
 	}
 	r.finest = finest;
-	if ((ret = relief_vk_create(&vo, &r.vk)) < 0 || (ret = relief_vk_target_init(r.vk, &r.target, w, h)) < 0 ||
-	    (ret = relief_patch_cache_create(r.vk, f, &co, &cli_log, &r.cache)) < 0 ||
-	    (ret = relief_terrain_create(r.vk, f, r.cache, &r.target, &r.terrain)) < 0) {
+	if ((ret = tool_renderer_init(&r.gpu, &vo, f, &co, w, h)) < 0) {
 		fprintf(stderr, "relief bench lod: GPU setup failed: %s\n", strerror(-ret));
 		goto out;
 	}
 	for (uint32_t l = 0; l < f->hdr.levels; l++) {
 		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++)
-			relief_patch_cache_request(r.cache, id, 0);
-		if ((ret = relief_patch_cache_flush(r.cache, 1)) < 0) {
+			relief_patch_cache_request(r.gpu.cache, id, 0);
+		if ((ret = relief_patch_cache_flush(r.gpu.cache, 1)) < 0) {
 			fprintf(stderr, "relief bench lod: the whole terrain does not fit the cache\n");
 			goto out;
 		}
@@ -431,8 +428,8 @@ int bench_lod(int argc, char **argv)
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 		printf("relief bench lod: %s, flight of %u key poses (%u frames, popping between frames %.1f m apart) "
 		       "at %ux%u on %s (%s), cache warm, GPU time from timestamps, %u runs\n", base, frames, 2 * frames,
-		       FLIGHT_SPEED / FRAME_RATE, w, h, r.vk->props.deviceName,
-		       relief_vk_device_type_name(r.vk->props.deviceType), runs);
+		       FLIGHT_SPEED / FRAME_RATE, w, h, r.gpu.vk->props.deviceName,
+		       relief_vk_device_type_name(r.gpu.vk->props.deviceType), runs);
 		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %10s %10s %10s %9s\n", "method", "tau/px",
 		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "p99.9", "rms_err",
 		       "popping", "cam_pop", "excluded");
@@ -469,13 +466,14 @@ int bench_lod(int argc, char **argv)
 			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,"
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
-			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u",
+			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
+			       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
 			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
 			       (unsigned long long)res[i].excluded, per_run, runs, w, h);
-			bench_json_machine(r.vk->props.deviceName);
+			bench_json_machine(r.gpu.vk->props.deviceName);
 		} else
 			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9.2f %10.3f %10.5f %10.4f %9llu\n",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
@@ -485,11 +483,7 @@ int bench_lod(int argc, char **argv)
 	free(ms);
 	status = 0;
 out:
-	relief_terrain_destroy(r.terrain);
-	relief_patch_cache_destroy(r.cache);
-	if (r.vk)
-		relief_vk_target_finish(r.vk, &r.target);
-	relief_vk_destroy(r.vk);
+	tool_renderer_finish(&r.gpu);
 	free(finest);
 	free(r.views);
 	free(r.ref_err);

@@ -16,6 +16,7 @@
 #include "format.h"
 #include "lod.h"
 #include "patch_cache.h"
+#include "renderer.h"
 #include "terrain.h"
 #include "track.h"
 #include "vk.h"
@@ -203,10 +204,7 @@ int cmd_fly(int argc, char **argv)
 	const double hfov = 2.0 * atan(tan(0.5 * base.fovy) * width / height);
 
 	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log };
-	struct relief_vk *vk = NULL;
-	struct relief_vk_target target = { 0 };
-	struct relief_patch_cache *cache = NULL;
-	struct relief_terrain *terrain = NULL;
+	struct tool_renderer g = { 0 };
 	struct relief_terrain_view *tv[MAX_CHANNELS] = { 0 };
 	struct relief_patch_cache_options co = { .budget_bytes = (uint64_t)budget << 20, .workers = workers };
 	struct fly_stats s = {
@@ -219,14 +217,12 @@ int cmd_fly(int argc, char **argv)
 		fprintf(stderr, "relief fly: out of memory\n");
 		goto out;
 	}
-	if ((ret = relief_vk_create(&vo, &vk)) < 0 || (ret = relief_vk_target_init(vk, &target, width, height)) < 0 ||
-	    (ret = relief_patch_cache_create(vk, f, &co, &cli_log, &cache)) < 0 ||
-	    (ret = relief_terrain_create(vk, f, cache, &target, &terrain)) < 0) {
+	if ((ret = tool_renderer_init(&g, &vo, f, &co, width, height)) < 0) {
 		fprintf(stderr, "relief fly: GPU setup failed: %s\n", strerror(-ret));
 		goto out;
 	}
 	for (uint32_t ch = 0; ch < channels; ch++)
-		if ((ret = relief_terrain_view_create(terrain, &tv[ch])) < 0) {
+		if ((ret = relief_terrain_view_create(g.terrain, &tv[ch])) < 0) {
 			fprintf(stderr, "relief fly: GPU setup failed: %s\n", strerror(-ret));
 			goto out;
 		}
@@ -239,7 +235,7 @@ int cmd_fly(int argc, char **argv)
 		double w0 = bench_now(), png_s = 0;
 		if (i == 0)
 			start = w0;
-		if ((ret = relief_patch_cache_update(cache, frame)) < 0) {
+		if ((ret = relief_patch_cache_update(g.cache, frame)) < 0) {
 			fprintf(stderr, "relief fly: frame %u: patch cache: %s\n", i, strerror(-ret));
 			goto out;
 		}
@@ -249,7 +245,7 @@ int cmd_fly(int argc, char **argv)
 			struct relief_view v;
 			track_channel_view(&centre, (ch - 0.5 * (channels - 1)) * hfov, &v);
 			struct relief_terrain_stats st;
-			if ((ret = relief_terrain_draw(terrain, tv[ch], &v, &target, frame, NULL, &st)) < 0) {
+			if ((ret = relief_terrain_draw(g.terrain, tv[ch], &v, &g.target, frame, NULL, &st)) < 0) {
 				fprintf(stderr, "relief fly: frame %u, channel %u: drawing failed: %s\n", i, ch, strerror(-ret));
 				goto out;
 			}
@@ -260,7 +256,7 @@ int cmd_fly(int argc, char **argv)
 				double p0 = bench_now();
 				sprintf(png, channels > 1 ? "%s/frame-%05u-c%u.png" : "%s/frame-%05u.png", out_dir, i, ch);
 				if ((ret = cli_make_parent_dir(png)) < 0 ||
-				    (ret = png_write_rgba(png, target.color_readback.map, width, height)) < 0) {
+				    (ret = png_write_rgba(png, g.target.color_readback.map, width, height)) < 0) {
 					fprintf(stderr, "relief fly: cannot write %s: %s\n", png, strerror(-ret));
 					goto out;
 				}
@@ -281,7 +277,7 @@ int cmd_fly(int argc, char **argv)
 		png_total += png_s;
 	}
 	struct relief_patch_cache_stats cs;
-	relief_patch_cache_stats(cache, &cs);
+	relief_patch_cache_stats(g.cache, &cs);
 	double wall_med = bench_median(s.wall_ms, frames), wall_p95 = bench_quantile(s.wall_ms, frames, 0.95);
 	double wall_max = s.wall_ms[frames - 1];
 	double upd_med = bench_median(s.update_ms, frames), upd_max = s.update_ms[frames - 1];
@@ -302,10 +298,10 @@ int cmd_fly(int argc, char **argv)
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
 		       gpu_med, gpu_p95, tri_med, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
 		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
-		bench_json_machine(vk->props.deviceName);
+		bench_json_machine(g.vk->props.deviceName);
 	} else {
 		printf("relief fly: %s, %u frames of %u channel(s) at %ux%u, tau %g px, %.2f s of track at %g Hz, on %s\n",
-		       path, frames, channels, width, height, tau, seconds, fps, vk->props.deviceName);
+		       path, frames, channels, width, height, tau, seconds, fps, g.vk->props.deviceName);
 		printf("  frame wall ms      median %.2f  p95 %.2f  max %.2f (drawing %u channel(s) and waiting for them)\n",
 		       wall_med, wall_p95, wall_max, channels);
 		printf("  cache update ms    median %.3f  max %.3f (never waits for a decode)\n", upd_med, upd_max);
@@ -317,15 +313,11 @@ int cmd_fly(int argc, char **argv)
 		       "%u worker(s))\n", (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
 		       (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
 	}
-	status = vk->validation && atomic_load(&vk->validation_messages) ? 1 : 0;
+	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;
 out:
 	for (uint32_t ch = 0; ch < channels; ch++)
 		relief_terrain_view_destroy(tv[ch]);
-	relief_terrain_destroy(terrain);
-	relief_patch_cache_destroy(cache);
-	if (vk)
-		relief_vk_target_finish(vk, &target);
-	relief_vk_destroy(vk);
+	tool_renderer_finish(&g);
 	free(png);
 	free(s.wall_ms);
 	free(s.update_ms);

@@ -13,6 +13,7 @@
 #include "le.h"
 #include "lod.h"
 #include "patch_cache.h"
+#include "renderer.h"
 #include "terrain.h"
 #include "vk.h"
 
@@ -134,28 +135,23 @@ int cmd_snap(int argc, char **argv)
 		return EXIT_USAGE;
 	}
 	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log };
-	struct relief_vk *vk = NULL;
-	struct relief_vk_target target = { 0 };
-	struct relief_patch_cache *cache = NULL;
-	struct relief_terrain *terrain = NULL;
+	struct tool_renderer g;
 	struct relief_terrain_view *tv = NULL;
 	struct relief_patch_cache_options co = { .budget_bytes = (uint64_t)budget << 20 };
 	int status = 1, ret;
-	if ((ret = relief_vk_create(&vo, &vk)) < 0 || (ret = relief_vk_target_init(vk, &target, width, height)) < 0 ||
-	    (ret = relief_patch_cache_create(vk, f, &co, &cli_log, &cache)) < 0 ||
-	    (ret = relief_terrain_create(vk, f, cache, &target, &terrain)) < 0 ||
-	    (ret = relief_terrain_view_create(terrain, &tv)) < 0) {
+	if ((ret = tool_renderer_init(&g, &vo, f, &co, width, height)) < 0 ||
+	    (ret = relief_terrain_view_create(g.terrain, &tv)) < 0) {
 		fprintf(stderr, "relief snap: GPU setup failed: %s\n", strerror(-ret));
 		goto out;
 	}
-	relief_patch_cache_request(cache, 0, 0.0f);
+	relief_patch_cache_request(g.cache, 0, 0.0f);
 	struct relief_terrain_stats st = { 0 };
 	uint32_t frames = 0;
 	for (uint64_t frame = 1; frame <= 4u * h->levels + 4u; frame++) {
-		if ((ret = relief_patch_cache_flush(cache, frame)) < 0 && ret != -ENOSPC)
+		if ((ret = relief_patch_cache_flush(g.cache, frame)) < 0 && ret != -ENOSPC)
 			break;
 		struct relief_draw_options dopt = { .wire = wire };
-		if ((ret = relief_terrain_draw(terrain, tv, &view, &target, frame, &dopt, &st)) < 0)
+		if ((ret = relief_terrain_draw(g.terrain, tv, &view, &g.target, frame, &dopt, &st)) < 0)
 			break;
 		frames++;
 		if (st.requests == 0)
@@ -165,14 +161,14 @@ int cmd_snap(int argc, char **argv)
 		fprintf(stderr, "relief snap: rendering failed: %s\n", strerror(-ret));
 		goto out;
 	}
-	if ((ret = cli_make_parent_dir(output)) < 0 || (ret = png_write_rgba(output, target.color_readback.map, width, height)) < 0) {
+	if ((ret = cli_make_parent_dir(output)) < 0 || (ret = png_write_rgba(output, g.target.color_readback.map, width, height)) < 0) {
 		fprintf(stderr, "relief snap: cannot write %s: %s\n", output, strerror(-ret));
 		goto out;
 	}
 	if (depth_path) {
 		size_t n = (size_t)width * height;
 		float *dist = malloc(sizeof(float) * n);
-		const float *d = target.depth_readback.map;
+		const float *d = g.target.depth_readback.map;
 		for (size_t i = 0; i < n && dist; i++)
 			le_put_f32((uint8_t *)&dist[i], (float)relief_view_depth_distance(&view, d[i]));
 		FILE *df = dist ? fopen(depth_path, "wbe") : NULL;
@@ -186,20 +182,16 @@ int cmd_snap(int argc, char **argv)
 		}
 	}
 	struct relief_patch_cache_stats cs;
-	relief_patch_cache_stats(cache, &cs);
+	relief_patch_cache_stats(g.cache, &cs);
 	printf("relief snap: wrote %s (%ux%u), tau %g px: %u patches in %u draws, %llu triangles, GPU %.2f ms "
 	       "(LOD compute %.2f ms, of which selection %.2f ms), %u frames to converge, %llu patches decoded, "
 	       "%u requests left\n",
 	       output, width, height, tau, st.patches, st.draws, (unsigned long long)st.triangles, st.gpu_ns / 1e6,
 	       st.lod_ns / 1e6, st.select_ns / 1e6, frames, (unsigned long long)cs.decoded, st.requests);
-	status = vk->validation && atomic_load(&vk->validation_messages) ? 1 : 0;
+	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;
 out:
 	relief_terrain_view_destroy(tv);
-	relief_terrain_destroy(terrain);
-	relief_patch_cache_destroy(cache);
-	if (vk)
-		relief_vk_target_finish(vk, &target);
-	relief_vk_destroy(vk);
+	tool_renderer_finish(&g);
 	relief_file_close(f);
 	return status;
 }
