@@ -30,6 +30,23 @@ void seal_corner(uint slot, vec2 s[4], inout uvec4 seal)
 		}
 }
 
+// Whether the box of the block at lo (patch samples), between heights range, is wholly
+// outside the draw camera's frustum: all eight corners beyond one clip plane, the planes
+// moved out by 0.1 % so that rounding between the corners' and the vertices' positions
+// cannot cull a block that shows a sliver. The box is convex, so the block is then unseen.
+bool block_unseen(Instance it, vec2 lo, vec2 range)
+{
+	uint outside = 63u;
+	for (int c = 0; c < 8; c++) {
+		ivec2 m = ivec2(lo) + int(BLOCK_CELLS) * ivec2(c & 1, (c >> 1) & 1);
+		vec4 p = draw_vp * vec4(pos_of(it, m, (c & 4) != 0 ? range.y : range.x), 1.0);
+		float w = 1.001 * p.w;
+		outside &= (p.x < -w ? 1u : 0u) | (p.x > w ? 2u : 0u) | (p.y < -w ? 4u : 0u) | (p.y > w ? 8u : 0u) |
+		           (p.z < -0.001 * p.w ? 16u : 0u) | (p.z > w ? 32u : 0u);
+	}
+	return outside != 0u;
+}
+
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
 // v = 1 south) and inner; all zero discards the quad. `seal`: its seal record.
 void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal)
@@ -89,6 +106,14 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			inner = vec2(interior_factor(it, lo, e, h, pt, outer));
 		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
 			inner = vec2(max(f[1], f[3]), max(f[0], f[2]));
+		}
+		// A block the draw camera cannot see is not tessellated. Everything it draws lies in
+		// its box unless a border takes a coarser patch's heights (a seal): those are kept.
+		// Its edges' factors above are still what its neighbours compute for them.
+		if ((pc.mode & MODE_NO_BLOCK_CULL) == 0u && (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u &&
+		    block_unseen(it, lo, range)) {
+			outer = vec4(0.0);
+			inner = vec2(0.0);
 		}
 	} else {
 		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;

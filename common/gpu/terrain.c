@@ -78,8 +78,10 @@ struct counters {
 	uint32_t border_groups[4]; /* the same for lod_borders.comp */
 };
 
-/* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts. */
+/* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts,
+ * bit 4 no block culling. */
 #define MODE_NO_SKIRTS 8u
+#define MODE_NO_BLOCK_CULL 16u
 
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
@@ -478,7 +480,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
 	if (t->timer.pool)
 		relief_vk_timer_write(&t->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
-	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u);
+	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
+	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u);
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);

@@ -464,6 +464,66 @@ static void test_banked_and_nadir_views(void **state)
 	watertight_and_error_bound(DEM_PUGET, poses, rolls_deg, sizeof(poses) / sizeof(poses[0]));
 }
 
+/* Blocks the draw camera cannot see are not tessellated (block_unseen() in
+ * lod_factors.comp): the picture, colour and depth, is bit for bit the one drawn with every
+ * block tessellated, from views that cut through patches every way (grazing, steep, banked,
+ * straight down, inside the mountain, on a patch corner, a level of detail chosen for one
+ * camera and drawn from another), for relief at tau 1 and 4 and for chunked LOD; and
+ * culling draws fewer triangles. */
+static void test_block_cull_keeps_picture(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, DEM_PUGET);
+	const struct { struct pose pose; double roll_deg; bool frozen; } cases[] = {
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 0, false },
+		{ { { 5000, 5000, 400 }, { 160000, 150000, 100 } }, 0, false },        /* grazing */
+		{ { { 126000, 77000, 4200 }, { 128480, 79200, 4000 } }, 0, false },    /* at the summit cliffs */
+		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, false },    /* inside the mountain */
+		{ { { 81920, 81920, 2500 }, { 90000, 81920, 0 } }, 35, false },         /* on a patch corner, banked */
+		{ { { 128480, 79200, 9000 }, { 128480, 79200, 0 } }, 150, false },      /* straight down */
+		{ { { 60000, 40000, 1500 }, { 70000, 60000, 800 } }, -20, true },       /* LOD from elsewhere */
+	};
+	const struct { enum relief_fine_lod fine; double tau; } methods[] = {
+		{ RELIEF_FINE_ERRORS, 1.0 }, { RELIEF_FINE_ERRORS, 4.0 }, { RELIEF_FINE_FULL, 1.0 },
+	};
+	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	uint64_t culled = 0, all = 0;
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
+		for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
+			struct relief_view v = pose_view(&cases[c].pose), lod = v;
+			v.roll = cases[c].roll_deg * M_PI / 180;
+			v.tau = lod.tau = methods[m].tau;
+			if (cases[c].frozen) { /* chosen 400 m to the east and 300 m lower, looking elsewhere */
+				lod.eye.x += 400;
+				lod.eye.z -= 300;
+				lod.target.x += 3000;
+			}
+			struct relief_draw_options o = { .fine = methods[m].fine, .lod_view = cases[c].frozen ? &lod : NULL };
+			struct relief_terrain_stats with, without;
+			render_with(&b.s, &v, &o, b.lod, &with);
+			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			o.no_block_cull = true;
+			render_with(&b.s, &v, &o, b.ref, &without);
+			uint32_t terrain = 0;
+			for (size_t k = 0; k < (size_t)BW * BH; k++)
+				terrain += b.ref[k] > 0.0f;
+			print_message("view %zu, %s tau %g: %u terrain pixels, %llu triangles culled, %llu not\n", c,
+			              methods[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v.tau, terrain,
+			              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
+			assert_true(terrain > 0);
+			assert_memory_equal(b.lod, b.ref, sizeof(float) * BW * BH);
+			assert_memory_equal(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			assert_true(with.triangles <= without.triangles);
+			culled += with.triangles;
+			all += without.triangles;
+		}
+	print_message("all views: %llu triangles with culling, %llu without\n", (unsigned long long)culled,
+	              (unsigned long long)all);
+	assert_true(culled < all); /* pipeline statistics are supported on lavapipe */
+	free(colour);
+	bound_close(&b);
+}
+
 /* Roll turns the picture about its centre: a camera rolled by 180 degrees shows the same
  * frame upside down (pixel (x, y) at (W-1-x, H-1-y)); the rotation maps pixel centres onto
  * pixel centres and keeps the frustum, so the same patches are drawn and depths agree
@@ -1127,6 +1187,7 @@ int main(void)
 		cmocka_unit_test(test_sealed_corners),
 		cmocka_unit_test(test_ridge_above_measuring_points),
 		cmocka_unit_test(test_hard_views),
+		cmocka_unit_test(test_block_cull_keeps_picture),
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_old_version_renders),
 		cmocka_unit_test(test_nodata_hidden),
