@@ -32,14 +32,18 @@ void seal_corner(uint slot, vec2 s[4], inout uvec4 seal)
 
 // Whether the box of the block at lo (patch samples), between heights range, is wholly
 // outside the draw camera's frustum: all eight corners beyond one clip plane, the planes
-// moved out by 0.1 % so that rounding between the corners' and the vertices' positions
-// cannot cull a block that shows a sliver. The box is convex, so the block is then unseen.
+// moved out by 0.1 % of w so that rounding (the corners are formed from one corner and
+// the matrix's columns, the vertices by pos_of()) cannot cull a block that shows a sliver.
+// The box is convex, so the block is then unseen.
 bool block_unseen(Instance it, vec2 lo, vec2 range)
 {
+	mat4 m = draw_vp; // one read of the buffer (a CPU implementation loads it lane by lane)
+	vec4 c0 = m * vec4(pos_of(it, ivec2(lo), range.x), 1.0);
+	float side = float(int(BLOCK_CELLS) * it.scale);
+	vec4 ex = m[0] * (side * it.spacing.x), ey = m[1] * (-side * it.spacing.y), ez = m[2] * (range.y - range.x);
 	uint outside = 63u;
 	for (int c = 0; c < 8; c++) {
-		ivec2 m = ivec2(lo) + int(BLOCK_CELLS) * ivec2(c & 1, (c >> 1) & 1);
-		vec4 p = draw_vp * vec4(pos_of(it, m, (c & 4) != 0 ? range.y : range.x), 1.0);
+		vec4 p = c0 + ((c & 1) != 0 ? ex : vec4(0.0)) + ((c & 2) != 0 ? ey : vec4(0.0)) + ((c & 4) != 0 ? ez : vec4(0.0));
 		float w = 1.001 * p.w;
 		outside &= (p.x < -w ? 1u : 0u) | (p.x > w ? 2u : 0u) | (p.y < -w ? 4u : 0u) | (p.y > w ? 8u : 0u) |
 		           (p.z < -0.001 * p.w ? 16u : 0u) | (p.z > w ? 32u : 0u);

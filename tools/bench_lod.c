@@ -324,9 +324,10 @@ int bench_lod(int argc, char **argv)
 		{ "json", no_argument, NULL, 'J' }, { "frames", required_argument, NULL, 'n' },
 		{ "size", required_argument, NULL, 's' }, { "taus", required_argument, NULL, 'T' },
 		{ "targets", required_argument, NULL, 'P' }, { "device", required_argument, NULL, 'd' },
-		{ "runs", required_argument, NULL, 'r' }, { "help", no_argument, NULL, 'h' }, { 0 },
+		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
+		{ "help", no_argument, NULL, 'h' }, { 0 },
 	};
-	bool json = false;
+	bool json = false, unculled = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	int ntau = 5, ntarget = 5;
@@ -357,9 +358,10 @@ int bench_lod(int argc, char **argv)
 			}
 			break;
 		case 'd': device = optarg; break;
+		case 'U': unculled = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
-			       "                        [--taus a,b,..] [--targets a,b,..] [--device DEV]\n"
+			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--device DEV]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -367,7 +369,9 @@ int bench_lod(int argc, char **argv)
 			       "patches, max and RMS screen-space error against the full-resolution surface, and\n"
 			       "popping between each key pose and its next frame: what the change of LOD alone does\n"
 			       "(the second camera drawn with both frames' LOD), and cam_pop, the change between the\n"
-			       "two pictures, camera motion included.\n");
+			       "two pictures, camera motion included. --unculled: relief and chunked also drawn\n"
+			       "without culling the blocks the camera cannot see (methods relief-unculled,\n"
+			       "chunked-unculled, taken in turn with the rest): what that culling saves.\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -414,7 +418,7 @@ int bench_lod(int argc, char **argv)
 	}
 	flight(f, frames, w, h, r.views);
 
-	struct config cfg[1 + 8 * 3];
+	struct config cfg[1 + 8 * 5];
 	int n = 0;
 	cfg[n++] = (struct config){ "full-grid", 0, { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true };
 	for (int i = 0; i < ntau; i++)
@@ -424,6 +428,12 @@ int bench_lod(int argc, char **argv)
 		                            { .fine = RELIEF_FINE_DISTANCE, .target_px = (float)targets[i], .select_tau = 1e-4 }, false };
 	for (int i = 0; i < ntau; i++)
 		cfg[n++] = (struct config){ "chunked", taus[i], { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }, false };
+	for (int i = 0; i < ntau && unculled; i++) {
+		cfg[n++] = (struct config){ "relief-unculled", taus[i],
+		                            { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i], .no_block_cull = true }, false };
+		cfg[n++] = (struct config){ "chunked-unculled", taus[i],
+		                            { .fine = RELIEF_FINE_FULL, .select_tau = taus[i], .no_block_cull = true }, false };
+	}
 	if (!json) {
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 		printf("relief bench lod: %s, flight of %u key poses (%u frames, popping between frames %.1f m apart) "
@@ -437,7 +447,7 @@ int bench_lod(int argc, char **argv)
 	/* Runs go round the configurations, so that a slow spell of the machine spreads over
 	 * all of them; errors are measured on the first run (they do not change). */
 	const size_t per_run = 2 * (size_t)frames;
-	struct result res[1 + 8 * 3] = { 0 };
+	struct result res[1 + 8 * 5] = { 0 };
 	const size_t total = (size_t)n * runs * per_run;
 	double *ms = calloc(3 * total, sizeof(double));
 	if (!ms) {

@@ -50,7 +50,7 @@ struct relief_draw_options {
 	float target_px;              /* RELIEF_FINE_DISTANCE: wanted triangle width, pixels */
 	double select_tau;            /* > 0: tau for the coarse selection instead of view->tau */
 	bool no_skirts;               /* tests: draw no skirt, so that any crack stays open */
-	bool no_block_cull;           /* tests: tessellate blocks the camera cannot see too */
+	bool no_block_cull;           /* tests, bench lod --unculled: tessellate blocks the camera cannot see too */
 	/* Non-NULL: choose the level of detail (selection, tessellation) for this view and draw
 	 * it from `view` (same viewport size): a frozen LOD, for measuring what LOD changes
 	 * alone do to the picture (`relief bench lod` popping) and for inspecting a view's LOD

@@ -170,6 +170,22 @@ expect_text bench-lod-popping '"popping_px":'
 expect_text bench-lod-camera-popping '"camera_popping_px":'
 expect_text bench-lod-runs '"frames":4,"runs":2,'
 expect_text bench-lod-cpu '","cpu":"'
+# --unculled: relief and chunked also drawn without block culling, in turn with the rest;
+# culling draws no more triangles and changes no error (the picture is the same).
+vkcheck bench-lod-unculled 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \
+	--unculled --json
+n=$(grep -c '"method":' <<<"$LAST_OUT")
+[ "$n" -eq 6 ] || { echo "FAIL bench lod --unculled records: $n"; fails=$((fails + 1)); }
+field() { grep "\"method\":\"$1\"" <<<"$LAST_OUT" | sed -n "s/.*\"$2\":\([0-9.e+-]*\).*/\1/p"; }
+culled=$(field relief triangles) unculled=$(field relief-unculled triangles)
+if [ -n "$culled" ] && [ -n "$unculled" ] && awk -v a="$culled" -v b="$unculled" 'BEGIN { exit !(a <= b) }' &&
+	[ "$(field relief max_err_px)" = "$(field relief-unculled max_err_px)" ] &&
+	[ "$(field chunked rms_err_px)" = "$(field chunked-unculled rms_err_px)" ]; then
+	passes=$((passes + 1))
+else
+	echo "FAIL bench lod --unculled: triangles $culled culled, $unculled not; errors differ?"
+	fails=$((fails + 1))
+fi
 vkcheck bench-lod-zero-runs 2 "$relief" bench lod "$tmp/ps.relief" --runs 0
 expect_text bench-lod-zero-runs-named "--runs"
 echo "cli: $passes passed, $fails failed"
