@@ -22,6 +22,9 @@ layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint curtains; } counters;
 layout(std430, binding = 6) writeonly buffer Wants { uvec2 want[]; }; // id, distance (float bits)
 layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
+// [2][count]: per frame parity, the least distance to the parent's box at which a view of
+// that frame wanted each resident patch (float bits; the cache's eviction reads it).
+layout(std430, binding = 18) buffer UseDist { uint use_dist[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
 
@@ -102,11 +105,13 @@ void main()
 	// Drawn needs every ancestor resident, visible and splitting with its children there;
 	// wanted (requested when missing) needs every ancestor visible and wanting to split.
 	bool reachable = true;
+	float parent_d = d; // the root's own
 	for (uint a = 0u; a < l; a++) {
 		uint ax = px >> (l - a), ay = py >> (l - a), aid = first_id(a) + ay * (1u << a) + ax;
 		vec3 amin, amax;
 		box(a, ax, ay, aid, amin, amax);
-		if (culled(amin, amax) || !wants_split(a, aid, distance_to(amin, amax)))
+		parent_d = distance_to(amin, amax);
+		if (culled(amin, amax) || !wants_split(a, aid, parent_d))
 			return;
 		uint c0 = first_id(a + 1u) + 2u * ay * (2u << a) + 2u * ax, row = 2u << a;
 		reachable = reachable && layer_of[aid] >= 0 && !child_missing(c0) && !child_missing(c0 + 1u) &&
@@ -120,8 +125,10 @@ void main()
 	// A wanted patch is in use even when not drawn (its siblings may still be missing): so
 	// that a cache short of layers does not evict it to make room for its siblings, and
 	// then again them for it, every frame.
-	if (layer_of[id] >= 0)
+	if (layer_of[id] >= 0) {
 		use_frame[id] = pc.frame;
+		atomicMin(use_dist[(pc.frame & 1u) * pc.count + id], floatBitsToUint(parent_d));
+	}
 	if (!reachable || layer_of[id] < 0 || culled(bmin, bmax))
 		return;
 	if (wish) {

@@ -128,15 +128,18 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	    (ret = relief_vk_buffer_init(vk, &c->jobs, sizeof(struct job_params) * IN_FLIGHT * MAX_BATCH,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->use_table, sizeof(uint32_t) * c->count,
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &c->use_dist, 2 * sizeof(uint32_t) * c->count,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0)
 		goto fail;
 	/* -1: nothing resident */
 	memset(c->layer, 0xff, sizeof(int32_t) * c->count);
 	memset(c->layer_table.map, 0xff, sizeof(int32_t) * c->count);
 	memset(c->use_table.map, 0, sizeof(uint32_t) * c->count);
+	memset(c->use_dist.map, 0xff, 2 * sizeof(uint32_t) * c->count);
 	c->pool_bytes = pool_bytes_for(c, n);
 	c->pool = (struct relief_patch_pool){ c->heights.view, c->normals.view, c->errors.buffer, n,
-	                                      c->layer_table.buffer, c->use_table.buffer };
+	                                      c->layer_table.buffer, c->use_table.buffer, c->use_dist.buffer };
 	c->owner = malloc(sizeof(int32_t) * n);
 	c->free_layers = malloc(sizeof(uint32_t) * n);
 	c->free_slots = malloc(sizeof(uint32_t) * c->o.staging_slots);
@@ -194,6 +197,7 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c)
 	relief_vk_buffer_finish(vk, &c->flags);
 	relief_vk_buffer_finish(vk, &c->layer_table);
 	relief_vk_buffer_finish(vk, &c->use_table);
+	relief_vk_buffer_finish(vk, &c->use_dist);
 	relief_vk_buffer_finish(vk, &c->jobs);
 	free(c->state);
 	free(c->layer);
@@ -287,6 +291,13 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 	return ret;
 }
 
+uint32_t relief_patch_cache_use_dist_half(struct relief_patch_cache *c, uint64_t frame, bool *reset)
+{
+	*reset = frame != c->dist_frame;
+	c->dist_frame = frame;
+	return (uint32_t)(frame & 1);
+}
+
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame)
 {
 	if (id < c->count && c->last_used[id] < frame)
@@ -303,7 +314,15 @@ static void set_layer(struct relief_patch_cache *c, uint32_t id, int32_t layer)
 	((int32_t *)c->layer_table.map)[id] = layer;
 }
 
-static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
+/* The resident patch whose layer may go: nothing depends on it (no resident child, no
+ * child on its way, not the root) and it is not being decoded. */
+static bool evictable(const struct relief_patch_cache *c, int32_t id)
+{
+	return id > 0 && c->state[id] == RELIEF_PATCH_RESIDENT && !c->children[id] && !c->pins[id];
+}
+
+/* A layer for a patch requested with `priority`, or -1. */
+static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame, float priority)
 {
 	if (c->n_free_layers)
 		return (int32_t)c->free_layers[--c->n_free_layers];
@@ -316,14 +335,33 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame)
 	uint64_t oldest = UINT64_MAX;
 	for (uint32_t i = 0; i < c->pool.layers; i++) {
 		int32_t id = c->owner[i];
-		if (id <= 0 || c->state[id] != RELIEF_PATCH_RESIDENT)
+		if (!evictable(c, id))
 			continue;
 		uint64_t used = c->last_used[id] > gpu_use[id] ? c->last_used[id] : gpu_use[id];
-		if (c->children[id] || c->pins[id] || used + c->o.keep_frames >= frame)
+		if (used + c->o.keep_frames >= frame)
 			continue;
 		if (used < oldest) {
 			oldest = used;
 			best = (int32_t)i;
+		}
+	}
+	/* Everything is in use: the patch wanted farthest away in the last frame drawn, if
+	 * more than twice as far as this request (patch_cache.h). Only what that frame's views
+	 * stamped counts (the distances of older frames are gone with their half). */
+	if (best < 0 && c->dist_frame) {
+		const uint32_t *dist = (const uint32_t *)c->use_dist.map + (c->dist_frame & 1) * c->count;
+		const uint32_t stamp = (uint32_t)c->dist_frame;
+		float farthest = 2.0f * priority;
+		for (uint32_t i = 0; i < c->pool.layers; i++) {
+			int32_t id = c->owner[i];
+			if (!evictable(c, id) || gpu_use[id] != stamp || dist[id] == UINT32_MAX)
+				continue;
+			float d;
+			memcpy(&d, &dist[id], sizeof(d));
+			if (d > farthest) {
+				farthest = d;
+				best = (int32_t)i;
+			}
 		}
 	}
 	if (best < 0)
@@ -360,6 +398,19 @@ static void release_slot(struct relief_patch_cache *c, uint32_t slot)
 }
 
 /* ---- batches ---- */
+
+/* Orders `pending` by request priority, most urgent first; ties keep their order. */
+static void sort_pending(struct relief_patch_cache *c)
+{
+	for (uint32_t i = 1; i < c->n_pending; i++) {
+		struct job j = c->pending[i];
+		float p = c->queued_prio[j.id];
+		uint32_t k = i;
+		for (; k > 0 && c->queued_prio[c->pending[k - 1].id] > p; k--)
+			c->pending[k] = c->pending[k - 1];
+		c->pending[k] = j;
+	}
+}
 
 /* The layer of a patch in a batch that is in flight, or -1. */
 static int32_t in_flight_layer(const struct relief_patch_cache *c, uint32_t id)
@@ -444,9 +495,11 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 	}
 	/* Fill free batches with pending patches whose parent is resident or in a batch in
 	 * flight (the decode pass reads it; the queue runs batches in order and each begins
-	 * with a barrier) and that get a layer; the others keep their order in `pending`. A
-	 * batch filled here is in flight for the next, so one update can submit a chain of
-	 * levels, one per free batch. */
+	 * with a barrier) and that get a layer; the others stay in `pending`. A batch filled
+	 * here is in flight for the next, so one update can submit a chain of levels, one per
+	 * free batch. Most urgent first (an ancestor is always ahead of its descendants): a
+	 * layer that one request cannot have, no later one can (alloc_layer()). */
+	sort_pending(c);
 	bool no_layer = false;
 	for (int i = 0; i < IN_FLIGHT && c->n_pending && !no_layer; i++) {
 		struct batch *b = &c->batches[i];
@@ -469,7 +522,7 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 			if (j.id)
 				parent_layer = ps == RELIEF_PATCH_RESIDENT ? c->layer[parent] : in_flight_layer(c, parent);
 			if (parent_layer >= 0 && b->n < c->o.batch && !no_layer)
-				no_layer = (layer = alloc_layer(c, frame)) < 0;
+				no_layer = (layer = alloc_layer(c, frame, c->queued_prio[j.id])) < 0;
 			if (layer < 0) {
 				c->pending[kept++] = j;
 				continue;

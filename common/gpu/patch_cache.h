@@ -24,7 +24,13 @@
  * whose parent turned out corrupt is dropped, not made resident); the parent stays pinned
  * until its child is resident; a patch with resident children is never evicted, nor one
  * still being decoded; the root is never evicted. Eviction takes the least recently used
- * resident patch that no view touched in the last keep_frames frames. A patch whose stream
+ * resident patch that no view touched in the last keep_frames frames. When every resident
+ * patch is in use, a patch waiting for a layer takes the one wanted farthest away in the
+ * last frame (pool.use_dist: the distance to its parent's box, so siblings, which a split
+ * needs together, count alike), if that is more than twice its own request priority (its
+ * distance): a shared cache short of layers serves the nearest detail of every view, not
+ * the first comer's, and with that margin an evicted patch asked for again can never evict
+ * the one that took its place (no ping-pong). A patch whose stream
  * fails its CRC (or whose file lost it, or whose values are out of range) is marked bad,
  * logged once, and never drawn: its parent keeps serving that area.
  *
@@ -32,6 +38,7 @@
  * worker runs inside. The file must outlive the cache. */
 #pragma once
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "format.h"
@@ -85,6 +92,12 @@ struct relief_patch_pool {
 	 * would once its siblings arrive), written by the LOD selection on the GPU; eviction
 	 * treats it like relief_patch_cache_touch(). */
 	VkBuffer use_table;
+	/* uint32[2][patch_count], host-visible: for the frames of each parity (the half
+	 * relief_patch_cache_use_dist_half() names), the least distance from a view's camera to
+	 * the box of a wanted resident patch's parent (float bits; the LOD selection writes it
+	 * with atomicMin, UINT32_MAX: no view wanted it). With no unused layer left, a request
+	 * much nearer than that takes the layer (relief_patch_cache_create() says the rule). */
+	VkBuffer use_dist;
 };
 
 int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
@@ -101,6 +114,10 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c);
  * urgently), -ENOENT for a patch with nothing to draw, -EIO for a bad patch, -EINVAL for
  * an id outside the tree. */
 int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float priority);
+/* The half of pool.use_dist that the views drawn in `frame` write: frame & 1. *reset is
+ * true at the first call of a frame (frames must not decrease): the caller then fills that
+ * half with 0xff bytes on the GPU before any view of the frame writes it. */
+uint32_t relief_patch_cache_use_dist_half(struct relief_patch_cache *c, uint64_t frame, bool *reset);
 /* Marks patch id as used by a view in `frame` (keeps it from eviction for keep_frames). */
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame);
 /* Non-blocking progress, once per frame: retires finished GPU batches, submits new ones.

@@ -62,7 +62,7 @@ struct relief_patch_cache {
 
 	/* GPU objects */
 	struct relief_vk_image heights, normals;
-	struct relief_vk_buffer errors, staging, flags, layer_table, use_table;
+	struct relief_vk_buffer errors, staging, flags, layer_table, use_table, use_dist;
 	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH], host-visible */
 	VkBufferView staging_view;    /* the staging buffer as R32_SINT texels (see patch_gpu.c) */
 	VkDescriptorSetLayout set_layout;
@@ -76,6 +76,8 @@ struct relief_patch_cache {
 	uint64_t next_seq;
 	struct relief_patch_pool pool;
 	uint64_t pool_bytes;
+
+	uint64_t dist_frame; /* the frame whose use_dist half was last reset, 0: none yet */
 
 	/* render-thread state, per patch */
 	uint8_t *state;

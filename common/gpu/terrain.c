@@ -88,8 +88,9 @@ struct counters {
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
  * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches), 15 the draw
  * camera's view-projection (float[16]), 16 seal records (uvec4 per quad, terrain_seal.glsl),
- * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp). */
-#define BINDINGS 18u
+ * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
+ * 18 the cache's use distances (patch_cache.h, pool.use_dist). */
+#define BINDINGS 19u
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -289,7 +290,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(float) * 16, storage, true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * 16 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * (BINDINGS - 2) },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
@@ -315,7 +316,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
-		                            v->seals.buffer, v->borders.buffer };
+		                            v->seals.buffer, v->borders.buffer, pool->use_dist };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -460,6 +461,13 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
+	/* The first view drawn in a frame clears the frame's half of the use distances; the
+	 * selection (its half: frame & 1) takes the least over the frame's views. */
+	bool reset;
+	uint32_t half = relief_patch_cache_use_dist_half(t->cache, frame, &reset);
+	if (reset)
+		vkCmdFillBuffer(cmd, relief_patch_cache_pool(t->cache)->use_dist, (VkDeviceSize)half * 4 * t->count,
+		                (VkDeviceSize)4 * t->count, UINT32_MAX);
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	VkDescriptorSet set = v->set[v->parity];
