@@ -11,7 +11,9 @@
 // and wants to split, resident or not (it belongs to the tree this view draws once
 // everything has arrived), so a cold cache or a camera that jumps asks for the whole chain
 // down to the finest patch it needs in one frame, not one level per round trip. Each
-// request carries the patch's distance from the camera: nearest first.
+// request carries the distance from the camera to the patch's parent's box: nearest first,
+// and the four siblings a split needs alike, so that a cache short of layers completes
+// one sibling set before it starts the next.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
@@ -120,7 +122,7 @@ void main()
 	if (l > 0u && child_missing(id)) {
 		uint n = atomicAdd(counters.wants, 1u);
 		if (n < pc.want_cap)
-			want[n] = uvec2(id, floatBitsToUint(d));
+			want[n] = uvec2(id, floatBitsToUint(parent_d));
 	}
 	// A wanted patch is in use even when not drawn (its siblings may still be missing): so
 	// that a cache short of layers does not evict it to make room for its siblings, and

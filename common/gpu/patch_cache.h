@@ -27,10 +27,11 @@
  * resident patch that no view touched in the last keep_frames frames. When every resident
  * patch is in use, a patch waiting for a layer takes the one wanted farthest away in the
  * last frame (pool.use_dist: the distance to its parent's box, so siblings, which a split
- * needs together, count alike), if that is more than twice its own request priority (its
- * distance): a shared cache short of layers serves the nearest detail of every view, not
- * the first comer's, and with that margin an evicted patch asked for again can never evict
- * the one that took its place (no ping-pong). A patch whose stream
+ * needs together, count alike), if that is more than twice its own request priority (the
+ * LOD selection asks with the same measure): a shared cache short of layers serves the
+ * nearest detail of every view, not the first comer's, and with that margin an evicted
+ * patch asked for again can never evict the one that took its place (no ping-pong). A
+ * patch whose stream
  * fails its CRC (or whose file lost it, or whose values are out of range) is marked bad,
  * logged once, and never drawn: its parent keeps serving that area.
  *
