@@ -116,8 +116,8 @@ void relief_patch_cache_destroy(struct relief_patch_cache *c);
  * an id outside the tree. */
 int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float priority);
 /* The half of pool.use_dist that the views drawn in `frame` write: frame & 1. *reset is
- * true at the first call of a frame (frames must not decrease): the caller then fills that
- * half with 0xff bytes on the GPU before any view of the frame writes it. */
+ * true when `frame` differs from the previous call's (the first view of a frame): the
+ * caller then fills that half with 0xff bytes on the GPU before the view writes it. */
 uint32_t relief_patch_cache_use_dist_half(struct relief_patch_cache *c, uint64_t frame, bool *reset);
 /* Marks patch id as used by a view in `frame` (keeps it from eviction for keep_frames). */
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame);
