@@ -70,7 +70,24 @@ struct fly_stats {
 	double *wall_ms, *update_ms, *gpu_ms, *triangles;
 	uint32_t incomplete, first_complete, last_incomplete;
 	double first_complete_ms; /* wall time from the first frame's start to the end of that frame */
+	uint32_t last_levels[RELIEF_MAX_LEVELS]; /* patches drawn per level in the last frame, all channels */
 };
+
+/* Adds the levels of the patches view tv drew in its last frame to levels[]. */
+static int count_levels(const struct relief_file *f, const struct relief_terrain_view *tv, uint32_t *levels)
+{
+	uint32_t *ids = malloc(sizeof(uint32_t) * f->hdr.patch_count);
+	if (!ids)
+		return -ENOMEM;
+	uint32_t n = relief_terrain_view_drawn(tv, ids, f->hdr.patch_count);
+	for (uint32_t k = 0; k < n; k++) {
+		uint32_t l, px, py;
+		if (relief_patch_coords(&f->layout, ids[k], &l, &px, &py))
+			levels[l]++;
+	}
+	free(ids);
+	return 0;
+}
 
 int cmd_fly(int argc, char **argv)
 {
@@ -251,6 +268,10 @@ int cmd_fly(int argc, char **argv)
 			}
 			gpu += st.gpu_ns / 1e6;
 			tri += (double)st.triangles;
+			if (i + 1 == frames && (ret = count_levels(f, tv[ch], s.last_levels)) < 0) {
+				fprintf(stderr, "relief fly: %s\n", strerror(-ret));
+				goto out;
+			}
 			requests += st.requests;
 			if (out_dir) {
 				double p0 = bench_now();
@@ -298,6 +319,10 @@ int cmd_fly(int argc, char **argv)
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
 		       gpu_med, gpu_p95, tri_med, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
 		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
+		printf(",\"patches_by_level_last_frame\":[");
+		for (uint32_t l = 0; l < f->hdr.levels; l++)
+			printf("%s%u", l ? "," : "", s.last_levels[l]);
+		printf("]");
 		bench_json_machine(g.vk->props.deviceName);
 	} else {
 		printf("relief fly: %s, %u frames of %u channel(s) at %ux%u, tau %g px, %.2f s of track at %g Hz, on %s\n",
@@ -312,6 +337,10 @@ int cmd_fly(int argc, char **argv)
 		printf("  cache              %llu patches decoded, %llu evicted, %llu bad; %u of %u layers used (%u MiB budget, "
 		       "%u worker(s))\n", (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
 		       (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
+		printf("  last frame         patches drawn per level 0..%u:", f->hdr.levels - 1);
+		for (uint32_t l = 0; l < f->hdr.levels; l++)
+			printf(" %u", s.last_levels[l]);
+		printf("\n");
 	}
 	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;
 out:

@@ -141,9 +141,16 @@ vkcheck fly 0 "$relief" fly "$tmp/ps.relief" --seconds 0.1 --size 64x36 --json
 expect_text fly-fields '"frames":7,"channels":1,"width":64,"height":36,"tau_px":1,"fps":60,'
 expect_text fly-incomplete '"frames_incomplete":'
 expect_text fly-latency '"first_complete_ms":'
+levels=$(sed -n 's/.*"patches_by_level_last_frame":\[\([0-9,]*\)\].*/\1/p' <<<"$LAST_OUT")
+if awk -F, -v l="$levels" 'BEGIN { n = split(l, v, ","); s = 0; for (i = 1; i <= n; i++) s += v[i]; exit !(n == 4 && s > 0) }'; then
+	passes=$((passes + 1))
+else
+	echo "FAIL fly patches per level: '$levels'"; fails=$((fails + 1))
+fi
 printf '# t x y z heading pitch roll\n0 60000 40000 3000 45 -10 0\n1 61000 41000 3000 90 -90 30\n' >"$tmp/good.track"
 vkcheck fly-track 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 2 --channels 2 --size 48x32 --out "$tmp/fly"
 expect_text fly-summary "3 frames of 2 channel(s)"
+expect_text fly-summary-levels "last frame         patches drawn per level 0..3:"
 [ "$(ls "$tmp/fly" | wc -l)" -eq 6 ] || { echo "FAIL fly frames written: $(ls "$tmp/fly")"; fails=$((fails + 1)); }
 printf '0 60000 40000 3000 45 -10 0\n0 61000 41000 3000 90 -10 0\n' >"$tmp/bad.track"
 check fly-bad-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp/bad.track"
