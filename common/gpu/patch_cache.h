@@ -31,9 +31,8 @@
  * LOD selection asks with the same measure): a shared cache short of layers serves the
  * nearest detail of every view, not the first comer's, and with that margin an evicted
  * patch asked for again can never evict the one that took its place (no ping-pong). A
- * patch whose stream
- * fails its CRC (or whose file lost it, or whose values are out of range) is marked bad,
- * logged once, and never drawn: its parent keeps serving that area.
+ * patch whose stream fails its CRC (or whose file lost it, or whose values are out of
+ * range) is marked bad, logged once, and never drawn: its parent keeps serving that area.
  *
  * Threading: all functions are for the thread that owns the Vulkan queue, except that the
  * worker runs inside. The file must outlive the cache. */
@@ -97,7 +96,7 @@ struct relief_patch_pool {
 	 * relief_patch_cache_use_dist_half() names), the least distance from a view's camera to
 	 * the box of a wanted resident patch's parent (float bits; the LOD selection writes it
 	 * with atomicMin, UINT32_MAX: no view wanted it). With no unused layer left, a request
-	 * much nearer than that takes the layer (relief_patch_cache_create() says the rule). */
+	 * much nearer than that takes the layer (the residency rules above). */
 	VkBuffer use_dist;
 };
 
