@@ -255,12 +255,18 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 		return -EIO;
 	case RELIEF_PATCH_ABSENT:
 		break;
-	case RELIEF_PATCH_QUEUED: {
-		/* Asked for again, more urgently (another view is nearer): served sooner. An
-		 * error here (no memory for the heap) leaves the earlier entry, still valid. */
+	case RELIEF_PATCH_QUEUED:
+	case RELIEF_PATCH_DECODING: {
+		/* Asked for again, more urgently (another view is nearer): served sooner, by the
+		 * worker if it still waits for it (an error here, no memory for the heap, leaves
+		 * the earlier entry, still valid), else when layers are handed out (update()). */
 		pthread_mutex_lock(&c->lock);
-		if (c->queued[id] && priority < c->queued_prio[id])
-			queue_push_with_ancestors(c, id, priority);
+		if (priority < c->queued_prio[id]) {
+			if (c->queued[id])
+				queue_push_with_ancestors(c, id, priority);
+			else
+				c->queued_prio[id] = priority;
+		}
 		pthread_mutex_unlock(&c->lock);
 		return 0;
 	}

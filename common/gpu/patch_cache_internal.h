@@ -99,7 +99,7 @@ struct relief_patch_cache {
 	struct request *heap;
 	uint32_t n_heap, cap_heap;
 	uint8_t *queued;
-	float *queued_prio; /* the priority a queued patch was last pushed with */
+	float *queued_prio; /* a queued or decoding patch's most urgent request priority */
 	uint32_t *free_slots, n_free_slots;
 	struct job *ready;
 	uint32_t n_ready;

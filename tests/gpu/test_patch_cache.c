@@ -402,6 +402,43 @@ static void test_priority_and_dedup(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* A patch whose symbols wait for a layer is served by its most urgent request: with one
+ * layer besides the root's, patches 1, 2 and 3 (priorities 10, 20, 30) are decoded and 1
+ * takes the layer; a nearer view then asks for 3 again (priority 1); once 1 is no longer
+ * used, its layer goes to 3, not to 2. (Negative control, run by hand: with the priority
+ * of a decoded patch left as it was queued, 2 takes it.) */
+static void test_waiting_patch_moves_up(void **state)
+{
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 1.0);
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .max_layers = 2, .keep_frames = 1 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, t.f, &o, NULL, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	for (uint32_t id = 1; id <= 3; id++)
+		assert_int_equal(relief_patch_cache_request(c, id, 10.0f * (float)id), 0);
+	struct relief_patch_cache_stats s = { 0 };
+	for (int spins = 0; relief_patch_cache_state(c, 1) != RELIEF_PATCH_RESIDENT || s.waiting < 2; spins++) {
+		assert_true(spins < 50000); /* 10 s of 200 us naps */
+		assert_true(relief_patch_cache_update(c, 1) >= 0);
+		relief_patch_cache_stats(c, &s);
+		usleep(200);
+	}
+	assert_int_equal(relief_patch_cache_state(c, 3), RELIEF_PATCH_DECODING);
+	assert_int_equal(relief_patch_cache_request(c, 3, 1.0f), 0);
+	for (int spins = 0; relief_patch_cache_state(c, 3) != RELIEF_PATCH_RESIDENT; spins++) {
+		assert_true(spins < 50000);
+		assert_true(relief_patch_cache_update(c, 10) >= 0);
+		usleep(200);
+	}
+	assert_int_equal(relief_patch_cache_state(c, 1), RELIEF_PATCH_ABSENT);
+	assert_int_equal(relief_patch_cache_state(c, 2), RELIEF_PATCH_DECODING);
+	relief_patch_cache_destroy(c);
+	terrain_close(&t);
+	gpu_test_assert_clean(vk);
+}
+
 static unsigned logged_errors;
 static char last_error[512];
 static void count_log(void *data, enum relief_log_level level, const char *fmt, va_list ap)
@@ -614,6 +651,7 @@ int main(void)
 		cmocka_unit_test(test_budget_and_eviction),
 		cmocka_unit_test(test_eviction_spares_in_flight),
 		cmocka_unit_test(test_priority_and_dedup),
+		cmocka_unit_test(test_waiting_patch_moves_up),
 		cmocka_unit_test(test_corrupt_patch),
 		cmocka_unit_test(test_corrupt_patch_subtree),
 		cmocka_unit_test(test_corrupt_parent_in_flight),
