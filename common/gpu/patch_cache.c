@@ -605,6 +605,7 @@ void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_
 	pthread_mutex_t *lock = (pthread_mutex_t *)&c->lock; /* the stats do not change c */
 	pthread_mutex_lock(lock);
 	s->waiting = c->n_ready + c->n_pending;
+	s->queue_entries = c->n_heap;
 	pthread_mutex_unlock(lock);
 }
 

@@ -77,6 +77,7 @@ struct relief_patch_cache_stats {
 	uint64_t gpu_normals_ns;  /* and normals: the normals pass */
 	uint64_t entropy_ns;      /* summed worker time in fetch + entropy decoding */
 	uint32_t waiting;         /* patches entropy-decoded, not yet taken into a batch */
+	uint32_t queue_entries;   /* request queue entries: at most twice the live ones plus 256 */
 };
 
 /* The resources a renderer binds. Owned by the cache. */

@@ -98,6 +98,7 @@ struct relief_patch_cache {
 	pthread_cond_t work, progress;
 	struct request *heap;
 	uint32_t n_heap, cap_heap;
+	uint32_t heap_live; /* entries left by the last compaction (patch_worker.c) */
 	uint8_t *queued;
 	float *queued_prio; /* a queued or decoding patch's most urgent request priority */
 	uint32_t *free_slots, n_free_slots;

@@ -17,8 +17,38 @@ static uint64_t now_ns(void)
 
 /* ---- request heap (min-heap on priority), under lock ---- */
 
+static void heap_insert(struct relief_patch_cache *c, struct request r)
+{
+	uint32_t i = c->n_heap++;
+	while (i > 0 && c->heap[(i - 1) / 2].prio > r.prio) {
+		c->heap[i] = c->heap[(i - 1) / 2];
+		i = (i - 1) / 2;
+	}
+	c->heap[i] = r;
+}
+
+/* A patch asked for again more urgently is pushed again, and the older entry stays until
+ * it comes up (then skipped): while the workers wait for staging slots (every slot held by
+ * a patch waiting for a layer) a camera closing in would grow the heap by an entry per
+ * patch and frame, without bound in a long run. So once the heap has grown to twice its
+ * live entries (plus 256), the stale ones are dropped: an entry is live while its patch
+ * is queued and the entry carries the patch's latest priority. */
+static void heap_compact(struct relief_patch_cache *c)
+{
+	uint32_t n = 0;
+	for (uint32_t i = 0; i < c->n_heap; i++)
+		if (c->queued[c->heap[i].id] && c->heap[i].prio == c->queued_prio[c->heap[i].id])
+			c->heap[n++] = c->heap[i];
+	c->n_heap = 0;
+	for (uint32_t i = 0; i < n; i++)
+		heap_insert(c, c->heap[i]); /* entries below i are already placed, i.. not yet read */
+	c->heap_live = n;
+}
+
 int patch_queue_push(struct relief_patch_cache *c, float prio, uint32_t id)
 {
+	if (c->n_heap >= 2 * c->heap_live + 256)
+		heap_compact(c);
 	if (c->n_heap == c->cap_heap) {
 		uint32_t cap = c->cap_heap ? 2 * c->cap_heap : 256;
 		struct request *h = realloc(c->heap, sizeof(*h) * cap);
@@ -27,12 +57,7 @@ int patch_queue_push(struct relief_patch_cache *c, float prio, uint32_t id)
 		c->heap = h;
 		c->cap_heap = cap;
 	}
-	uint32_t i = c->n_heap++;
-	while (i > 0 && c->heap[(i - 1) / 2].prio > prio) {
-		c->heap[i] = c->heap[(i - 1) / 2];
-		i = (i - 1) / 2;
-	}
-	c->heap[i] = (struct request){ prio, id };
+	heap_insert(c, (struct request){ prio, id });
 	return 0;
 }
 

@@ -439,6 +439,43 @@ static void test_waiting_patch_moves_up(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* The request queue stays bounded while the worker cannot take from it: one staging slot,
+ * held by a patch that no layer will ever be free for (the only layer holds the root), and
+ * three queued patches asked for again 30,000 times each, more urgently every time (a
+ * camera closing in). Negative control, run by hand: without dropping stale entries the
+ * queue holds 90,003. */
+static void test_queue_stays_bounded(void **state)
+{
+	struct terrain t;
+	terrain_open(&t, DEM_PUGET, 129, 1.0);
+	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .max_layers = 1, .staging_slots = 1 };
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, t.f, &o, NULL, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	for (uint32_t id = 1; id <= 4; id++)
+		assert_int_equal(relief_patch_cache_request(c, id, 100.0f), 0);
+	struct relief_patch_cache_stats s = { 0 };
+	for (int spins = 0; s.waiting < 1; spins++) { /* the worker has taken one and stalls */
+		assert_true(spins < 50000);
+		assert_true(relief_patch_cache_update(c, 1) >= 0);
+		relief_patch_cache_stats(c, &s);
+		usleep(200);
+	}
+	for (int k = 1; k <= 30000; k++)
+		for (uint32_t id = 1; id <= 4; id++)
+			assert_int_equal(relief_patch_cache_request(c, id, 100.0f - 0.001f * (float)k), 0);
+	assert_true(relief_patch_cache_update(c, 2) >= 0);
+	relief_patch_cache_stats(c, &s);
+	print_message("%u queue entries for 3 queued patches after 90,000 more urgent requests; %u waiting for a layer\n",
+	              s.queue_entries, s.waiting);
+	assert_int_equal(s.waiting, 1);
+	assert_true(s.queue_entries >= 3 && s.queue_entries <= 2 * 3 + 256 + 1);
+	relief_patch_cache_destroy(c);
+	terrain_close(&t);
+	gpu_test_assert_clean(vk);
+}
+
 static unsigned logged_errors;
 static char last_error[512];
 static void count_log(void *data, enum relief_log_level level, const char *fmt, va_list ap)
@@ -652,6 +689,7 @@ int main(void)
 		cmocka_unit_test(test_eviction_spares_in_flight),
 		cmocka_unit_test(test_priority_and_dedup),
 		cmocka_unit_test(test_waiting_patch_moves_up),
+		cmocka_unit_test(test_queue_stays_bounded),
 		cmocka_unit_test(test_corrupt_patch),
 		cmocka_unit_test(test_corrupt_patch_subtree),
 		cmocka_unit_test(test_corrupt_parent_in_flight),
