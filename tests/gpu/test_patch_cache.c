@@ -359,16 +359,22 @@ static void test_eviction_spares_in_flight(void **state)
 /* Closest first, each patch once: with one staging slot, patches are decoded one at a time
  * in the worker's order. The first request may be taken before the others arrive; the
  * rest must follow their priorities. Repeated requests decode nothing twice. */
+/* Puget Sound in 129-sample patches, and a cache with options o holding the root. */
+static struct relief_patch_cache *cache_with_root(struct terrain *t, const struct relief_patch_cache_options *o)
+{
+	terrain_open(t, DEM_PUGET, 129, 1.0);
+	struct relief_patch_cache *c;
+	assert_int_equal(relief_patch_cache_create(vk, t->f, o, NULL, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	return c;
+}
+
 static void test_priority_and_dedup(void **state)
 {
 	struct terrain t;
-	terrain_open(&t, DEM_PUGET, 129, 1.0);
-	struct relief_file *f = t.f;
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .staging_slots = 1, .batch = 1 };
-	struct relief_patch_cache *c;
-	assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
-	relief_patch_cache_request(c, 0, 0);
-	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	struct relief_patch_cache *c = cache_with_root(&t, &o);
 	float prio[5] = { 0, 40, 10, 30, 20 }; /* for ids 1..4 */
 	for (int rep = 0; rep < 3; rep++)
 		for (uint32_t id = 1; id <= 4; id++)
@@ -410,12 +416,8 @@ static void test_priority_and_dedup(void **state)
 static void test_waiting_patch_moves_up(void **state)
 {
 	struct terrain t;
-	terrain_open(&t, DEM_PUGET, 129, 1.0);
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .max_layers = 2, .keep_frames = 1 };
-	struct relief_patch_cache *c;
-	assert_int_equal(relief_patch_cache_create(vk, t.f, &o, NULL, &c), 0);
-	relief_patch_cache_request(c, 0, 0);
-	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	struct relief_patch_cache *c = cache_with_root(&t, &o);
 	for (uint32_t id = 1; id <= 3; id++)
 		assert_int_equal(relief_patch_cache_request(c, id, 10.0f * (float)id), 0);
 	struct relief_patch_cache_stats s = { 0 };
@@ -447,12 +449,8 @@ static void test_waiting_patch_moves_up(void **state)
 static void test_queue_stays_bounded(void **state)
 {
 	struct terrain t;
-	terrain_open(&t, DEM_PUGET, 129, 1.0);
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .max_layers = 1, .staging_slots = 1 };
-	struct relief_patch_cache *c;
-	assert_int_equal(relief_patch_cache_create(vk, t.f, &o, NULL, &c), 0);
-	relief_patch_cache_request(c, 0, 0);
-	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	struct relief_patch_cache *c = cache_with_root(&t, &o);
 	for (uint32_t id = 1; id <= 4; id++)
 		assert_int_equal(relief_patch_cache_request(c, id, 100.0f), 0);
 	struct relief_patch_cache_stats s = { 0 };
