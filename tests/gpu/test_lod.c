@@ -246,17 +246,28 @@ static struct comparison compare(const struct scene *s, const struct relief_view
 	return c;
 }
 
-/* The last frame's drawn patches (ids[], *n of them) and the mask of their levels. */
-static uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n)
+/* View tv's last frame: its drawn patches (ids[], *n of them) and the mask of their
+ * levels; if counts is not NULL, each level's number of patches is added to
+ * counts[RELIEF_MAX_LEVELS]. */
+static uint32_t view_levels(const struct scene *s, const struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
+                            uint32_t *counts)
 {
 	uint32_t levels = 0;
-	*n = relief_terrain_view_drawn(s->view, ids, s->f->hdr.patch_count);
+	*n = relief_terrain_view_drawn(tv, ids, s->f->hdr.patch_count);
 	for (uint32_t i = 0; i < *n; i++) {
 		uint32_t l, px, py;
 		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));
 		levels |= 1u << l;
+		if (counts)
+			counts[l]++;
 	}
 	return levels;
+}
+
+/* The scene's own view's last frame (view_levels()). */
+static uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n)
+{
+	return view_levels(s, s->view, ids, n, NULL);
 }
 
 /* Against a full-resolution render of the same camera: no background inside the terrain's
@@ -689,15 +700,10 @@ static void test_views_share_cache(void **state)
 /* The number of finest-level patches view tv drew in its last frame. */
 static uint32_t finest_drawn(const struct scene *s, const struct relief_terrain_view *tv)
 {
-	const uint32_t n = s->f->hdr.patch_count;
-	uint32_t *ids = malloc(4 * n), drawn = relief_terrain_view_drawn(tv, ids, n), finest = 0;
-	for (uint32_t k = 0; k < drawn; k++) {
-		uint32_t l, px, py;
-		assert_true(relief_patch_coords(&s->f->layout, ids[k], &l, &px, &py));
-		finest += l == s->f->hdr.levels - 1;
-	}
+	uint32_t *ids = malloc(4 * s->f->hdr.patch_count), n, counts[RELIEF_MAX_LEVELS] = { 0 };
+	view_levels(s, tv, ids, &n, counts);
 	free(ids);
-	return finest;
+	return counts[s->f->hdr.levels - 1];
 }
 
 /* A shared cache short of layers serves the nearest detail of every view, not the first
