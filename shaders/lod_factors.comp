@@ -69,6 +69,35 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		vec2 range = block_range_at(it.layer, bl);
 		float h = check_height(range);
 		bool errors = fine_lod() == FINE_ERRORS;
+		// Edges in the order of the outer factors: west, north, east, south.
+		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
+		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
+		const ivec3 along[4] = ivec3[4](ivec3(0, 3, 6), ivec3(0, 1, 2), ivec3(2, 5, 8), ivec3(6, 7, 8));
+		// Edges on the patch's border first: lod_borders.comp has their factors and seals.
+		float f[4];
+		bool inner_edge[4];
+		for (int i = 0; i < 4; i++) {
+			ivec2 nb = bl + toward[i];
+			inner_edge[i] = nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b;
+			if (inner_edge[i])
+				continue;
+			uvec2 rec = border_edge(slot, sides[i], sides[i] >= 2u ? bl.y : bl.x);
+			if (i % 2 == 0)
+				seal.x = rec.y; // west or east
+			else
+				seal.y = rec.y; // north or south
+			f[i] = float(rec.x);
+		}
+		// A block the draw camera cannot see is not tessellated, and its other factors are
+		// not worked out (only its own control shader reads them; each neighbour computes
+		// a shared edge's factor itself). Everything it draws lies in its box unless a
+		// border takes a coarser patch's heights (a seal): such a block is kept.
+		if ((pc.mode & MODE_NO_BLOCK_CULL) == 0u && (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u &&
+		    block_unseen(it, lo, range)) {
+			outer = vec4(0.0);
+			inner = vec2(0.0);
+			return;
+		}
 		// The block's corners, edge middles and centre in clip space at its measuring height,
 		// 3 x 3 in raster order: where its interior is measured, and its edges at the height
 		// both blocks of the edge share.
@@ -77,47 +106,27 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		if (errors)
 			for (int q = 0; q < 9; q++)
 				pt[q] = check_clip(it, lo + vec2(float(q % 3), float(q / 3)) * half_block, h);
-		// Edges in the order of the outer factors: west, north, east, south.
-		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
-		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
-		const ivec3 along[4] = ivec3[4](ivec3(0, 3, 6), ivec3(0, 1, 2), ivec3(2, 5, 8), ivec3(6, 7, 8));
-		float f[4];
 		for (int i = 0; i < 4; i++) {
-			ivec2 nb = bl + toward[i];
-			if (nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b) {
-				vec4 eps = max(e, block_eps(it, nb.x, nb.y));
-				vec2 rn = block_range_at(it.layer, nb), er = vec2(min(range.x, rn.x), max(range.y, rn.y));
-				float eh = check_height(er);
-				if (errors && eh == h) {
-					vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
-					f[i] = error_factor(pts, 3, eps);
-				} else {
-					vec2 a, c;
-					block_edge(bl, sides[i], a, c);
-					f[i] = edge_factor(it, a, c, eps, er);
-				}
+			if (!inner_edge[i])
 				continue;
+			ivec2 nb = bl + toward[i];
+			vec4 eps = max(e, block_eps(it, nb.x, nb.y));
+			vec2 rn = block_range_at(it.layer, nb), er = vec2(min(range.x, rn.x), max(range.y, rn.y));
+			float eh = check_height(er);
+			if (errors && eh == h) {
+				vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
+				f[i] = error_factor(pts, 3, eps);
+			} else {
+				vec2 a, c;
+				block_edge(bl, sides[i], a, c);
+				f[i] = edge_factor(it, a, c, eps, er);
 			}
-			uvec2 rec = border_edge(slot, sides[i], sides[i] >= 2u ? bl.y : bl.x);
-			if (i % 2 == 0)
-				seal.x = rec.y; // west or east
-			else
-				seal.y = rec.y; // north or south
-			f[i] = float(rec.x);
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		if (errors) { // isotropic: see the top of terrain_factors.glsl
 			inner = vec2(interior_factor(it, lo, e, h, pt, outer));
 		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
 			inner = vec2(max(f[1], f[3]), max(f[0], f[2]));
-		}
-		// A block the draw camera cannot see is not tessellated. Everything it draws lies in
-		// its box unless a border takes a coarser patch's heights (a seal): those are kept.
-		// Its edges' factors above are still what its neighbours compute for them.
-		if ((pc.mode & MODE_NO_BLOCK_CULL) == 0u && (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u &&
-		    block_unseen(it, lo, range)) {
-			outer = vec4(0.0);
-			inner = vec2(0.0);
 		}
 	} else {
 		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;
