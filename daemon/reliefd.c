@@ -8,6 +8,7 @@
 
 #include "config.h"
 #include "format.h"
+#include "heap.h"
 #include "log.h"
 #include "patch_cache.h"
 #include "relief_version.h"
@@ -78,6 +79,7 @@ int main(int argc, char **argv)
 		{ "help", no_argument, NULL, 'h' },
 		{ 0 },
 	};
+	relief_heap_keep_freed(); /* the driver's per-draw buffers stay mapped (heap.h) */
 	struct reliefd_config cfg;
 	reliefd_config_defaults(&cfg);
 	const char *config_path = NULL, *device = NULL, *terrain = NULL;

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "cli.h"
+#include "heap.h"
 #include "relief_version.h"
 
 static const struct relief_command commands[] = {
@@ -26,6 +27,7 @@ static void usage(FILE *f)
 
 int main(int argc, char **argv)
 {
+	relief_heap_keep_freed(); /* the driver's per-draw buffers stay mapped (heap.h) */
 	const char *level = getenv("RELIEF_LOG");
 	if (level) {
 		static const char *const names[] = { "error", "warn", "info", "debug" };
