@@ -5,9 +5,10 @@
  * allocates their buffers (megabytes) per draw. With glibc's default dynamic thresholds a
  * thread arena whose free top exceeds the trim threshold gives it back to the kernel
  * (madvise MADV_DONTNEED) on every free, and the next draw faults every page in again and
- * has the kernel zero it: on lavapipe 14 trims and ~8,500 page faults per 640 x 360 frame,
- * 36-40 % of the frame (docs/benchmarks.md, "The heap"). Keeping freed memory costs nothing
- * once the peak has been reached: the memory is reused by the next draw. */
+ * has the kernel zero it: on lavapipe, in the first seconds of `relief fly`, 14 trims and
+ * ~8,500 page faults per 640 x 360 frame; frames up to 38 % shorter without them
+ * (docs/benchmarks.md, "The heap"). Keeping freed memory costs nothing once the peak has
+ * been reached: the memory is reused by the next draw. */
 #pragma once
 
 #include <stdbool.h>

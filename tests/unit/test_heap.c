@@ -22,8 +22,11 @@ static void *fault_rounds(void *out)
 		char *b[BLOCKS];
 		for (int i = 0; i < BLOCKS; i++) {
 			b[i] = malloc(BLOCK_BYTES);
-			if (!b[i])
+			if (!b[i]) {
+				while (i-- > 0)
+					free(b[i]);
 				return NULL;
+			}
 			memset(b[i], r + 1, BLOCK_BYTES);
 		}
 		for (int i = BLOCKS - 1; i >= 0; i--)
