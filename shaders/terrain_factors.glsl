@@ -147,12 +147,19 @@ vec4 nearest_point(Instance it, vec2 lo, float h)
 // too; measured at ten points with the block's own errors, Puget Sound at tau = 1 draws
 // 20 % fewer triangles. One level below the finest edge at most: without that limit, the
 // tessellator's transition triangles between a fine edge and a much coarser interior put a
-// test pixel 1.007 px off at tau = 1.
+// test pixel 1.007 px off at tau = 1. And never an inner factor of 2 against an edge of 4
+// or more: the interior is then the block's centre alone, and every triangle joins it to
+// an edge segment, a triangulation of no level d that no eps_d bounds; at 1280 x 720 such
+// a block was 112 m off, 2.05 px at tau = 2 (docs/lod.md, known issues). That rule costs
+// 0.2-5 % more triangles.
 float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges)
 {
 	// Levels coarser than the limit are not tried: the search starts there, and each level
 	// stops at its first point over tau (passing is monotone in d, eps being so).
-	float least = 0.5 * max(max(edges.x, edges.y), max(edges.z, edges.w));
+	float finest_edge = max(max(edges.x, edges.y), max(edges.z, edges.w));
+	float least = 0.5 * finest_edge;
+	if (least == 2.0)
+		least = finest_edge; // not the centre alone against edges of 4 (above)
 	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
 	vec4 near = nearest_point(it, lo, h);
 	for (int d = top; d >= 1; d--) {

@@ -960,6 +960,25 @@ static void test_ridge_above_measuring_points(void **state)
 	scene_close(&s);
 }
 
+/* A block whose interior would be its centre alone (inner factor 2) next to an edge of 4
+ * segments is drawn as a fan from that centre, which no block error bounds. In this frame
+ * (`relief bench lod --size 1280x720` on Puget Sound, key pose 5, tau = 2) such a block of
+ * level-3 patch 57 was 112 m off the finest surface, 2.05 px (negative control, run when
+ * this test was written: without the rule in interior_factor() it fails, 2.019 px, 111.7 m). */
+static void test_no_lone_centre_fan(void **state)
+{
+	enum { W = 1280, H = 720 };
+	struct scene s;
+	scene_open(&s, DEM_PUGET, 1.0, W, H);
+	struct relief_view v = {
+		.eye = { 59451.2, 59489.6, 3603.84 }, .target = { 92219.2, 92257.6, -10298.56 },
+		.fovy = 55 * M_PI / 180, .width = W, .height = H, .znear = 1, .zfar = 551007,
+	};
+	const double taus[] = { 2.0 };
+	within_tau_of_reference(&s, &v, taus, 1, "fan frame", W * H / 4);
+	scene_close(&s);
+}
+
 /* Patch corners and T-junctions between levels, looking down at patch corners of Puget
  * Sound from 6 km at coarse thresholds, skirts off: no crack. The six views come from a
  * sweep of 147 views around every level-3 patch corner at tau 2, 4, 8 and 16 (clean now):
@@ -1258,6 +1277,7 @@ int main(void)
 		cmocka_unit_test(test_requests_look_ahead),
 		cmocka_unit_test(test_watertight_and_error_bound_puget),
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
+		cmocka_unit_test(test_no_lone_centre_fan),
 		cmocka_unit_test(test_sealed_borders),
 		cmocka_unit_test(test_edge_curtain),
 		cmocka_unit_test(test_banked_and_nadir_views),
