@@ -940,6 +940,16 @@ static void within_tau_of_reference(struct scene *s, struct relief_view *v, cons
 	free(lod);
 }
 
+/* One frame a benchmark flight found over tau, on a file packed at 1 m: within tau now, at
+ * at least a quarter of the pixels showing terrain in both renders. */
+static void benchmark_frame_within_tau(enum test_dem dem, struct relief_view *v, double tau, const char *what)
+{
+	struct scene s;
+	scene_open(&s, dem, 1.0, v->width, v->height);
+	within_tau_of_reference(&s, v, &tau, 1, what, v->width * v->height / 4);
+	scene_close(&s);
+}
+
 /* A ridge above every point where a block's error segments are measured is nearer along
  * the view axis when the camera looks down, so its error projects larger than at any of
  * them. This frame (`relief bench lod --frames 48` on Mont Blanc, key pose 17, 480 x 270)
@@ -948,16 +958,11 @@ static void within_tau_of_reference(struct scene *s, struct relief_view *v, cons
  * at the top of each block's height range (format version 4) it is within tau. */
 static void test_ridge_above_measuring_points(void **state)
 {
-	enum { W = 480, H = 270 };
-	struct scene s;
-	scene_open(&s, DEM_ALPS, 1.0, W, H);
 	struct relief_view v = {
 		.eye = { 20120.458, 20142.706, 4038.8 }, .target = { 32097.298, 32119.546, -1042.543 },
-		.fovy = 55 * M_PI / 180, .width = W, .height = H, .znear = 1, .zfar = 256496,
+		.fovy = 55 * M_PI / 180, .width = 480, .height = 270, .znear = 1, .zfar = 256496,
 	};
-	const double taus[] = { 4.0 };
-	within_tau_of_reference(&s, &v, taus, 1, "ridge frame", W * H / 4);
-	scene_close(&s);
+	benchmark_frame_within_tau(DEM_ALPS, &v, 4.0, "ridge frame");
 }
 
 /* A block whose interior would be its centre alone (inner factor 2) next to an edge of 4
@@ -967,16 +972,11 @@ static void test_ridge_above_measuring_points(void **state)
  * this test was written: without the rule in interior_factor() it fails, 2.019 px, 111.7 m). */
 static void test_no_lone_centre_fan(void **state)
 {
-	enum { W = 1280, H = 720 };
-	struct scene s;
-	scene_open(&s, DEM_PUGET, 1.0, W, H);
 	struct relief_view v = {
 		.eye = { 59451.2, 59489.6, 3603.84 }, .target = { 92219.2, 92257.6, -10298.56 },
-		.fovy = 55 * M_PI / 180, .width = W, .height = H, .znear = 1, .zfar = 551007,
+		.fovy = 55 * M_PI / 180, .width = 1280, .height = 720, .znear = 1, .zfar = 551007,
 	};
-	const double taus[] = { 2.0 };
-	within_tau_of_reference(&s, &v, taus, 1, "fan frame", W * H / 4);
-	scene_close(&s);
+	benchmark_frame_within_tau(DEM_PUGET, &v, 2.0, "fan frame");
 }
 
 /* Patch corners and T-junctions between levels, looking down at patch corners of Puget
