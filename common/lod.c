@@ -260,8 +260,10 @@ double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p,
 }
 
 double relief_surface_vertical_error(const struct relief_file *f, const float *hf, uint32_t w, uint32_t h,
-                                     uint32_t step, struct relief_vec3 p)
+                                     uint32_t step, struct relief_vec3 p, double *mid)
 {
+	if (mid)
+		*mid = 0.0;
 	double gx = (p.x - f->hdr.origin_x) / (f->hdr.spacing_x * step);
 	double gy = (f->hdr.origin_y - p.y) / (f->hdr.spacing_y * step);
 	if (!(gx >= 0 && gy >= 0 && gx <= w - 1 && gy <= h - 1) || w < 2 || h < 2)
@@ -274,5 +276,7 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 	double d0 = u >= t ? a + u * (b - a) + t * (d - b) : a + t * (c - a) + u * (d - c);
 	double d1 = u + t <= 1 ? a + u * (b - a) + t * (c - a) : d + (1 - u) * (c - d) + (1 - t) * (b - d);
 	double e0 = p.z - d0, e1 = p.z - d1;
+	if (mid)
+		*mid = p.z - 0.5 * (d0 + d1);
 	return fabs(e0) < fabs(e1) ? e0 : e1;
 }

@@ -76,9 +76,13 @@ struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int
 double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e);
 /* Signed vertical distance from p to a level's decoded surface (heights w x h in metres,
  * samples at the file's spacing times `step`), the nearer of the two cell diagonals; 0
- * outside the raster or over no-data. */
+ * outside the raster or over no-data. `mid`, if not NULL, receives the signed distance to
+ * the mean of the two diagonals' surfaces: one fixed reference, for differences of errors
+ * (popping). The nearer diagonal is the reference the bound is stated against (either
+ * could be drawn), but it changes sides when p crosses the middle between the two, so a
+ * point moving by a hair flips the sign of its error there. */
 double relief_surface_vertical_error(const struct relief_file *f, const float *heights, uint32_t w, uint32_t h,
-                                     uint32_t step, struct relief_vec3 p);
+                                     uint32_t step, struct relief_vec3 p, double *mid);
 
 /* A patch's screen error is Err(P) * kappa / (distance from the camera to its box), infinite
  * inside the box. The coarse selection takes patches whose screen error is within this

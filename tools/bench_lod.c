@@ -18,8 +18,12 @@
  * draws once with its own LOD and once with the first frame's LOD (frozen, see
  * relief_draw_options.lod_view); the RMS over pixels of the difference of the two signed
  * errors, averaged over the pairs. Same camera, same pixels, so this is the DSS paper's
- * measure (the change of the height difference at the same place) in pixels. Until the
- * fourth session popping_px was the change of the error between the two frames' own
+ * measure (the change of the height difference at the same place) in pixels. Those signed
+ * errors are taken against one fixed surface, the mean of a finest cell's two diagonal
+ * triangulations (since the eighth December 2026 session; before, against the nearer
+ * diagonal, as the error statistics are, whose side flips when a point crosses the middle
+ * between the two, so that a surface moving by a hair counted twice its error there).
+ * Until the fourth session popping_px was the change of the error between the two frames' own
  * pictures, which also counts the error field moving under the pixels as the camera moves
  * (static geometry pops there too); that measure is still printed as camera_popping_px.
  * The JSON also has the median and the largest per-pair value (popping_pair_median_px,
@@ -128,8 +132,8 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 			if (!(depth[k] > 0.0f)) /* reversed Z: 0 is the background */
 				continue;
 			struct relief_vec3 p = relief_view_unproject(v, (int)x, (int)y, depth[k]);
-			double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p);
-			double px = relief_view_segment_px(v, p, fabs(dz));
+			double mid, dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p, &mid);
+			double px = relief_view_segment_px(v, p, fabs(dz)), pm = relief_view_segment_px(v, p, fabs(mid));
 			if (c->reference) {
 				if (a)
 					ref[k] = isfinite(px) ? (float)px : NAN;
@@ -140,7 +144,8 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 			}
 			if (!isfinite(px))
 				continue;
-			err[k] = (float)(dz < 0 ? -px : px);
+			/* Popping compares these: against one fixed surface (lod.h). */
+			err[k] = isfinite(pm) ? (float)(mid < 0 ? -pm : pm) : NAN;
 			if (!a)
 				continue;
 			a->worst = fmax(a->worst, px);

@@ -234,7 +234,7 @@ static struct comparison compare(const struct scene *s, const struct relief_view
 				c.holes++;
 			if (d > 0.0f && ref[y * W + x] > 0.0f) {
 				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
-				double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt));
+				double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
 				double px = relief_view_segment_px(v, pt, e);
 				if (px > c.worst_px) {
 					c.worst_px = px;
