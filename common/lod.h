@@ -20,6 +20,7 @@ struct relief_view {
 	uint32_t width, height;    /* viewport, pixels */
 	double znear, zfar;        /* metres */
 	double tau;                /* screen-space error threshold, pixels */
+	bool morph;                /* geomorph changes of a block's level (docs/lod.md, "Morphing") */
 };
 
 /* 0, or -EINVAL with a reason for NaN/infinite values, a zero-size viewport, eye equal to

@@ -27,9 +27,10 @@ void main()
 		ivec2 bl = border_block(side, int(r % pc.blocks));
 		float fc;
 		int clayer;
-		uint j = coarser_edge(it, bl, side, fc, clayer);
-		float f = j != 0u ? max(1.0, fc / float(1u << j)) : drawn_border_factor(it, bl, side);
-		borders[i] = uvec2(uint(f), seal_side(j, fc, clayer));
+		uint cmorph, morph = MORPH_FULL; // sealed: the vertices are the coarser patch's
+		uint j = coarser_edge(it, bl, side, fc, clayer, cmorph);
+		float f = j != 0u ? max(1.0, fc / float(1u << j)) : drawn_border_factor(it, bl, side, morph);
+		borders[i] = uvec2(uint(f) | (morph << 8u), seal_side(j, fc, clayer, cmorph));
 	} else {
 		uint c = r - 4u * pc.blocks; // bit 0 east, bit 1 south
 		float hs;

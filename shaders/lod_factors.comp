@@ -7,11 +7,13 @@
 // Tessellation factors of every drawn quad patch of one view, once per frame, one
 // invocation per quad (dispatched indirectly from the drawn count): the work the control
 // shader would otherwise repeat per patch, here spread over all compute lanes. Factors are
-// 0 or powers of two up to 16, stored as bytes: outer in x, inner in y.
+// 0 or powers of two up to 16, stored as bytes: outer in x, inner in y (bytes 0, 1); the
+// morph bytes (terrain_factors.glsl) of the outer edges in z, of the interior in y byte 2.
 layout(local_size_x = 64) in;
 
 // What lod_borders.comp computed for drawn patch `slot`: border block edge `a` (along the
-// border) on `side` (0 north, 1 south, 2 west, 3 east): (outer factor, seal side record);
+// border) on `side` (0 north, 1 south, 2 west, 3 east): (outer factor | morph byte << 8,
+// seal side record);
 // corner c (bit 0 east, bit 1 south): (sealed height bits, 1) or (, 0).
 layout(std430, binding = 17) readonly buffer Borders { uvec2 borders[]; };
 uvec2 border_edge(uint slot, uint side, int a) { return borders[slot * (4u * pc.blocks + 4u) + side * pc.blocks + uint(a)]; }
@@ -52,10 +54,12 @@ bool block_unseen(Instance it, vec2 lo, vec2 range)
 }
 
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
-// v = 1 south) and inner; all zero discards the quad. `seal`: its seal record.
-void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal)
+// v = 1 south) and inner; all zero discards the quad. `seal`: its seal record; `morph`:
+// the morph bytes of the outer edges (x) and of the interior (y), packed as in factors[].
+void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal, out uvec2 morph)
 {
 	seal = uvec4(0u);
+	morph = uvec2(0xffffffffu, MORPH_FULL);
 	vec2 in_s[4];
 	float down;
 	for (uint v = 0u; v < 4u; v++)
@@ -75,6 +79,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		const ivec3 along[4] = ivec3[4](ivec3(0, 3, 6), ivec3(0, 1, 2), ivec3(2, 5, 8), ivec3(6, 7, 8));
 		// Edges on the patch's border first: lod_borders.comp has their factors and seals.
 		float f[4];
+		uint m[4];
 		bool inner_edge[4];
 		for (int i = 0; i < 4; i++) {
 			ivec2 nb = bl + toward[i];
@@ -86,7 +91,8 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 				seal.x = rec.y; // west or east
 			else
 				seal.y = rec.y; // north or south
-			f[i] = float(rec.x);
+			f[i] = float(rec.x & 0xffu);
+			m[i] = rec.x >> 8u;
 		}
 		// A block the draw camera cannot see is not tessellated, and its other factors are
 		// not worked out (only its own control shader reads them; each neighbour computes
@@ -115,16 +121,17 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			float eh = check_height(er);
 			if (errors && eh == h) {
 				vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
-				f[i] = error_factor(pts, 3, eps);
+				f[i] = error_factor(pts, 3, eps, m[i]);
 			} else {
 				vec2 a, c;
 				block_edge(bl, sides[i], a, c);
-				f[i] = edge_factor(it, a, c, eps, er);
+				f[i] = edge_factor(it, a, c, eps, er, m[i]);
 			}
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
+		morph.x = m[0] | (m[1] << 8u) | (m[2] << 16u) | (m[3] << 24u);
 		if (errors) { // isotropic: see the top of terrain_factors.glsl
-			inner = vec2(interior_factor(it, lo, e, h, pt, outer));
+			inner = vec2(interior_factor(it, lo, e, h, pt, outer, morph.y));
 		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
 			inner = vec2(max(f[1], f[3]), max(f[0], f[2]));
 		}
@@ -138,13 +145,15 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			inner = vec2(0.0);
 			return;
 		}
-		float f = float(border_edge(slot, side, i).x);
+		uint rec = border_edge(slot, side, i).x, mb = rec >> 8u;
+		float f = float(rec & 0xffu);
 		outer = vec4(1.0, f, 1.0, f);
 		inner = vec2(f, 1.0);
+		morph.x = mb | (mb << 8u) | (mb << 16u) | (mb << 24u); // the border edge's, top and bottom
 	}
 }
 
-layout(std430, binding = 13) writeonly buffer Factors { uvec2 factors[]; };
+layout(std430, binding = 13) writeonly buffer Factors { uvec4 factors[]; };
 layout(std430, binding = 16) writeonly buffer Seals { uvec4 seals[]; };
 
 void main()
@@ -157,9 +166,10 @@ void main()
 	vec4 o;
 	vec2 i;
 	uvec4 seal;
-	quad_factors(slot, inst[slot], k, o, i, seal);
+	uvec2 m;
+	quad_factors(slot, inst[slot], k, o, i, seal, m);
 	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);
-	factors[q] = uvec2(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u));
+	factors[q] = uvec4(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u) | (m.y << 16u), m.x, 0u);
 }

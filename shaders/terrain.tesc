@@ -13,7 +13,8 @@ layout(location = 2) out vec2 out_s[];
 layout(location = 3) out float out_down[];
 layout(location = 4) patch out uvec4 out_seal; // terrain_seal.glsl
 layout(location = 5) patch out uvec4 out_inst[4]; // the quad's patch instance (instance_pack)
-layout(std430, binding = 13) readonly buffer Factors { uvec2 factors[]; };
+layout(location = 9) patch out uvec3 out_factors; // the quad's factors[] record (lod_factors.comp)
+layout(std430, binding = 13) readonly buffer Factors { uvec4 factors[]; };
 layout(std430, binding = 16) readonly buffer Seals { uvec4 seals[]; };
 
 float byte_of(uint v, uint i) { return float((v >> (8u * i)) & 0xffu); }
@@ -24,7 +25,7 @@ void main()
 	out_down[gl_InvocationID] = in_down[gl_InvocationID];
 	if (gl_InvocationID != 0)
 		return;
-	uvec2 f = factors[in_quad[0]];
+	uvec4 f = factors[in_quad[0]];
 	gl_TessLevelOuter[0] = byte_of(f.x, 0u);
 	gl_TessLevelOuter[1] = byte_of(f.x, 1u);
 	gl_TessLevelOuter[2] = byte_of(f.x, 2u);
@@ -32,5 +33,6 @@ void main()
 	gl_TessLevelInner[0] = byte_of(f.y, 0u);
 	gl_TessLevelInner[1] = byte_of(f.y, 1u);
 	out_seal = seals[in_quad[0]];
+	out_factors = f.xyz;
 	instance_pack(inst[in_slot[0]], out_inst);
 }

@@ -7,16 +7,64 @@
 // Vertices land on samples (factors are 16 / 2^d), displaced by the decoded heights;
 // positions are camera-relative, so floats stay small at any world coordinates, and formed
 // by pos_of() so that patches sharing a border put its vertices at the same bits. A border
-// vertex next to a coarser patch takes its height on that patch's drawn edge.
+// vertex next to a coarser patch takes its height on that patch's drawn edge; any other
+// vertex that its edge's or interior's next coarser level lacks is morphed towards that
+// level (terrain_factors.glsl).
 layout(quads, equal_spacing, ccw) in;
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
 layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_pack)
+// The quad's factors[] record (lod_factors.comp): outer factors (x), inner factors and the
+// interior's morph byte (y), the outer edges' morph bytes (z).
+layout(location = 9) patch in uvec3 in_factors;
 layout(location = 1) flat out float out_q2; // metres per quantum of the patch's heights
 layout(location = 2) out vec2 out_s;          // patch sample coordinates: validity, normal, height per fragment
 layout(location = 3) flat out int out_layer;
 precise gl_Position; // shared border vertices get identical bits in both patches
+
+// Height of sample si of a quad whose corners are samples lo (0, 0) and hi (1, 1) at its
+// morphed level, given its own height h. On an outer edge (si on the quad's border, not a
+// corner) the edge's factor and morph byte apply along it; inside, the inner factor's (an
+// inner factor of 1 is drawn as 2, the centre alone). A curtain quad (`curtain`, lo and hi
+// on the terrain's edge) morphs along its top edge like the block above it.
+float morphed_height(Instance it, ivec2 si, ivec2 lo, ivec2 hi, bool curtain, float h)
+{
+	if (curtain) {
+		ivec2 dir = clamp(hi - lo, ivec2(-1), ivec2(1));
+		int step = int(BLOCK_CELLS) / int(in_factors.x >> 8u & 0xffu), i = abs((si - lo).x + (si - lo).y) / step;
+		return (i & 1) != 0 ? morph_height(sample_height(it, si - dir * step), h, sample_height(it, si + dir * step),
+		                                   in_factors.z & 0xffu)
+		                    : h;
+	}
+	bool w = si.x == lo.x, e = si.x == hi.x, n = si.y == lo.y, s = si.y == hi.y;
+	if ((w || e) && (n || s))
+		return h; // a block corner: on every level
+	if (w || e || n || s) {
+		uint k = w ? 0u : n ? 1u : e ? 2u : 3u; // outer factor order: west, north, east, south
+		ivec2 dir = (w || e) ? ivec2(0, 1) : ivec2(1, 0);
+		int step = int(BLOCK_CELLS) / int(in_factors.x >> (8u * k) & 0xffu);
+		int i = ((w || e) ? si.y - lo.y : si.x - lo.x) / step;
+		return (i & 1) != 0 ? morph_height(sample_height(it, si - dir * step), h, sample_height(it, si + dir * step),
+		                                   (in_factors.z >> (8u * k)) & 0xffu)
+		                    : h;
+	}
+	int step = int(BLOCK_CELLS) / max(int(in_factors.y & 0xffu), 2);
+	ivec2 ij = (si - lo) / step;
+	uint m = (in_factors.y >> 16u) & 0xffu;
+	if ((ij.x & 1) != 0 && (ij.y & 1) != 0) { // a cell's centre: the mean of both diagonals' ends
+		float a = sample_height(it, si + ivec2(-step, -step)), b = sample_height(it, si + ivec2(step, step));
+		float c = sample_height(it, si + ivec2(step, -step)), d = sample_height(it, si + ivec2(-step, step));
+		precise float ab = 0.5 * (a + b), cd = 0.5 * (c + d);
+		return morph_height(ab, h, cd, m);
+	}
+	if ((ij.x & 1) != 0)
+		return morph_height(sample_height(it, si - ivec2(step, 0)), h, sample_height(it, si + ivec2(step, 0)), m);
+	if ((ij.y & 1) != 0)
+		return morph_height(sample_height(it, si - ivec2(0, step)), h, sample_height(it, si + ivec2(0, step)), m);
+	return h;
+}
+
 void main()
 {
 	Instance it = instance_unpack(in_inst);
@@ -28,15 +76,19 @@ void main()
 	int last = int(pc.P) - 1;
 	// On a coarser patch's drawn edge (no crack between levels): the height sealed_height()
 	// gives, from the record the factor pass wrote, so that this shader does no search.
-	bool ex = si.x == 0 || si.x == last, ey = si.y == 0 || si.y == last;
+	bool ex = si.x == 0 || si.x == last, ey = si.y == 0 || si.y == last, sealed = false;
 	if (ex && ey) {
-		if (in_seal.w != 0u)
+		sealed = in_seal.w != 0u;
+		if (sealed)
 			h = uintBitsToFloat(in_seal.z);
 	} else if (ex || ey) {
 		uint rec = ex ? in_seal.x : in_seal.y;
-		if ((rec & 7u) != 0u)
+		sealed = (rec & 7u) != 0u;
+		if (sealed)
 			h = sealed_side_height(it, si, ex ? (si.x == 0 ? 2u : 3u) : (si.y == 0 ? 0u : 1u), rec);
 	}
+	if (!sealed && (in_factors.z != 0xffffffffu || (in_factors.y >> 16u) != MORPH_FULL))
+		h = morphed_height(it, si, ivec2(in_s[0] + 0.5), ivec2(in_s[3] + 0.5), in_down[3] > 0.0, h);
 	out_s = vec2(si);
 	out_layer = it.layer;
 	out_q2 = it.q2;

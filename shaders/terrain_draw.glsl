@@ -20,7 +20,9 @@ layout(push_constant) uniform DrawPush {
 	vec2 viewport;    // pixels
 	float tau;        // pixels
 	float cam_z;      // metres
-	uint P, blocks, per_patch, mode; // per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no skirts; bit 4: no block culling
+	// per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no
+	// skirts; bit 4: no block culling; bit 5: morphing
+	uint P, blocks, per_patch, mode;
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
 	float target_px;  // FINE_DISTANCE: wanted triangle edge length, pixels
@@ -32,6 +34,7 @@ const uint FINE_FULL = 1u;     // every block at full resolution (chunked LOD, f
 const uint FINE_DISTANCE = 2u; // factor from the edge's projected length (no error metric)
 const uint MODE_NO_SKIRTS = 8u; // tests: leave every crack open
 const uint MODE_NO_BLOCK_CULL = 16u; // tests: tessellate unseen blocks too (lod_factors.comp)
+const uint MODE_MORPH = 32u; // the view geomorphs level changes (relief_view.morph, terrain_factors.glsl)
 
 // Camera-relative position of the patch's sample m (x east, y north, z up) at height h
 // metres. Integer finest-grid indices first, one rounding to float after: every patch that

@@ -80,24 +80,90 @@ vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m
 // Sample m's position raised (or lowered) to the measuring height h, in clip space.
 vec4 check_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(m + 0.5), h)); }
 
-// The coarsest factor whose error segment, measured at each of `n` points (clip space), is
-// within tau.
-float error_factor(vec4 c[3], int n, vec4 eps)
+// The largest vertical error, metres, whose segment centred on clip point c projects to at
+// most tau pixels: seg_pixels(c, e) <= tau solved for e. For half-length s the segment's
+// image is 2 s K / (c.w^2 - s^2 z.w^2), with z = vp[2] and K = |viewport / 2 * (c.xy z.w -
+// z.xy c.w)|; the root of tau (c.w^2 - s^2 z.w^2) = 2 s K in the form without cancellation.
+float allowed_error(vec4 c)
 {
-	for (int d = 4; d >= 1; d--) {
+	if (c.w <= 1e-6)
+		return 0.0; // as seg_pixels: reaches behind the camera
+	vec4 z = pc.vp[2];
+	precise vec2 d = 0.5 * pc.viewport * (c.xy * z.w - z.xy * c.w);
+	precise float k = length(d);
+	precise float tw = pc.tau * z.w * c.w;
+	precise float den = k + sqrt(k * k + tw * tw);
+	if (!(den > 0.0))
+		return 1.0 / 0.0; // the segment projects to a point
+	precise float s = pc.tau * c.w * c.w / den;
+	return 2.0 * s;
+}
+
+// Geomorphing (docs/lod.md, "Morphing"). A block edge or interior drawn at level d (factor
+// 16 / 2^d) because level d + 1 failed gives the vertices level d + 1 lacks (odd ones) the
+// height (1 - t) c + t h, where h is the vertex's sample and c the level d + 1 surface there
+// (the mean of its two neighbours along an edge or a row, of its four diagonal neighbours at
+// a cell's centre). With t = 0 that drawn surface lies between level d + 1's two diagonal
+// triangulations at every point, so eps_{d+1} bounds it; with t = 1 it is level d; a blend
+// is bounded by (1 - t) eps_{d+1} + t eps_d. The least weight that keeps this bound within
+// the allowed error at every measuring point is t0 = (eps_{d+1} - allowed) / (eps_{d+1} -
+// eps_d); any larger t keeps it too. t = min(1, MORPH_RATE t0) moves continuously with the
+// camera: where level d + 1 just fails t is 0 and the picture is level d + 1's surface (but
+// for the diagonal: a coarse cell's centre takes the mean of both), so a change of level
+// no longer pops, and the blend is done within the first 1 / MORPH_RATE of the
+// level's error range. With t0 itself (a rate of 1) every block is always part-way and the
+// surface as coarse as tau allows: on a 48-pair Puget Sound flight the RMS error doubled
+// and popping at tau = 1 rose; a rate of 4 costs about 10 % RMS error and pops less than
+// no morphing at tau = 1, 4 and 8 (docs/lod.md, "Morphing"). t travels as a morph byte m,
+// t = m / 256, rounded up (a larger t only lowers the bound); MORPH_FULL (255) means t = 1,
+// and is what a view without morphing (relief_view.morph, MODE_MORPH) and the baselines use:
+// their factor pass then works out no allowed error, and the evaluation shader skips the
+// blend for a quad whose bytes are all MORPH_FULL.
+const uint MORPH_FULL = 255u;
+const float MORPH_RATE = 4.0;
+
+bool morph_on() { return fine_lod() == FINE_ERRORS && (pc.mode & MODE_MORPH) != 0u; }
+
+uint morph_byte(vec4 eps, int d, float allowed)
+{
+	if (!morph_on() || d >= 4)
+		return MORPH_FULL;
+	float coarse = eps[d], fine = d == 0 ? 0.0 : eps[d - 1]; // eps_{d+1}, eps_d (0 at full detail)
+	if (isinf(coarse))
+		return MORPH_FULL;
+	if (!(coarse > fine))
+		return coarse <= allowed ? 0u : MORPH_FULL;
+	float t = clamp(MORPH_RATE * (coarse - allowed) / (coarse - fine), 0.0, 1.0);
+	return min(uint(ceil(t * 256.0)), MORPH_FULL);
+}
+
+// The coarsest level d whose error segment, measured at each of `n` points (clip space),
+// is within tau (0: full detail), its factor 16 / 2^d, and its morph byte.
+float error_factor(vec4 c[3], int n, vec4 eps, out uint morph)
+{
+	int d = 4;
+	for (; d >= 1; d--) {
 		float e = eps[d - 1];
 		float worst = 0.0;
 		for (int i = 0; i < n; i++)
 			worst = max(worst, seg_pixels(c[i], e));
 		if (worst <= pc.tau)
-			return float(BLOCK_CELLS >> uint(d));
+			break;
 	}
-	return float(BLOCK_CELLS);
+	morph = MORPH_FULL;
+	if (morph_on()) {
+		float allowed = 1.0 / 0.0;
+		for (int i = 0; i < n; i++)
+			allowed = min(allowed, allowed_error(c[i]));
+		morph = morph_byte(eps, d, allowed);
+	}
+	return float(BLOCK_CELLS >> uint(d));
 }
 
-float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range)
+float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint morph)
 {
 	uint fine = fine_lod();
+	morph = MORPH_FULL;
 	if (fine == FINE_FULL)
 		return float(BLOCK_CELLS);
 	if (fine == FINE_DISTANCE) {
@@ -112,7 +178,7 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range)
 	}
 	float h = check_height(range);
 	vec4 pts[3] = vec4[3](check_clip(it, a, h), check_clip(it, (a + b) * 0.5, h), check_clip(it, b, h));
-	return error_factor(pts, 3, eps);
+	return error_factor(pts, 3, eps, morph);
 }
 
 // Errors for the edge of border block bl on `side` (0 north, 1 south, 2 west, 3 east): the
@@ -153,7 +219,7 @@ vec4 nearest_point(Instance it, vec2 lo, float h)
 // a block was 112 m off, 2.05 px at tau = 2 (docs/lod.md, known issues). That rule costs
 // 0-8 % more triangles. (A centre alone against edges of 2 and 1 segments, inner factor 1
 // rounded up to 2 by the tessellator, remains: it is not measured either.)
-float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges)
+float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges, out uint morph)
 {
 	// Levels coarser than the limit are not tried: the search starts there, and each level
 	// stops at its first point over tau (passing is monotone in d, eps being so).
@@ -163,15 +229,30 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 		least = finest_edge; // not the centre alone against edges of 4 (above)
 	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
 	vec4 near = nearest_point(it, lo, h);
-	for (int d = top; d >= 1; d--) {
+	int d = top;
+	for (; d >= 1; d--) {
 		float e = eps[d - 1];
 		bool pass = seg_pixels(near, e) <= pc.tau;
 		for (int k = 0; k < 9 && pass; k++)
 			pass = seg_pixels(pt[k], e) <= pc.tau;
 		if (pass)
-			return float(BLOCK_CELLS >> uint(d));
+			break;
 	}
-	return float(BLOCK_CELLS);
+	// An interior of factor 1 against a finer edge is drawn by the tessellator as its
+	// centre alone (inner factor 1 rounds up to 2): with morphing that centre takes the
+	// mean of the corners (t = 0), which level 4's two triangulations bound.
+	if (d == 4) {
+		morph = morph_on() ? 0u : MORPH_FULL;
+		return 1.0;
+	}
+	morph = MORPH_FULL;
+	if (morph_on()) {
+		float allowed = allowed_error(near);
+		for (int k = 0; k < 9; k++)
+			allowed = min(allowed, allowed_error(pt[k]));
+		morph = morph_byte(eps, d, allowed);
+	}
+	return float(BLOCK_CELLS >> uint(d));
 }
 
 // Ends of block bl's edge on `side`, in patch samples (the same pairs the quads use).
@@ -183,12 +264,12 @@ void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 }
 
 // The factor of border block bl's edge on `side` of patch `it`, as `it` draws it.
-float border_edge_factor(Instance it, ivec2 bl, uint side)
+float border_edge_factor(Instance it, ivec2 bl, uint side, out uint morph)
 {
 	vec4 eps = block_eps(it, bl.x, bl.y);
 	vec2 range = block_range_at(it.layer, bl);
 	border_errors(it, bl, side, eps, range);
 	vec2 a, b;
 	block_edge(bl, side, a, b);
-	return edge_factor(it, a, b, eps, range);
+	return edge_factor(it, a, b, eps, range, morph);
 }

@@ -31,9 +31,15 @@ uint finer_across(Instance it, ivec2 bl, uint side)
 // drawn across: border_edge_factor(), but at least 2^j where a patch j levels finer is
 // drawn across, so that every corner of that patch's blocks along the edge is a vertex
 // here too (no T-junction: its border is drawn with these vertices, terrain_seal.glsl).
-float drawn_border_factor(Instance it, ivec2 bl, uint side)
+// Its morph byte: the edge's own, or MORPH_FULL where the finer patch raised the factor.
+float drawn_border_factor(Instance it, ivec2 bl, uint side, out uint morph)
 {
-	return max(border_edge_factor(it, bl, side), float(1u << finer_across(it, bl, side)));
+	float f = border_edge_factor(it, bl, side, morph), least = float(1u << finer_across(it, bl, side));
+	if (least > f) {
+		morph = MORPH_FULL;
+		return least;
+	}
+	return f;
 }
 
 // The patch j levels above `it` at position q of its level, where its own selection would
@@ -64,15 +70,16 @@ Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
 }
 
 // Border block bl on `side` against a coarser patch drawn across it: the coarser patch's
-// factor for its block edge that holds this one, and j. The caller draws this edge with
+// factor for its block edge that holds this one, its morph byte, and j. The caller draws this edge with
 // that patch's vertices only (factor fc / 2^j, at least 1) and the evaluation shader
 // puts them on its drawn edge, so the border has no crack and needs no skirt.
-uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer)
+uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer, out uint cmorph)
 {
 	uint cid;
 	uint j = coarser_across(it, side, cid);
 	fc = 0.0;
 	clayer = -1;
+	cmorph = MORPH_FULL;
 	if (j == 0u)
 		return 0u;
 	clayer = layer_of[cid];
@@ -85,34 +92,58 @@ uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer
 	int along = (vertical ? int(it.py) : int(it.px)) * b + (vertical ? bl.y : bl.x);
 	int c_along = (along >> j) - (vertical ? q.y : q.x) * b;
 	uint c_side = side ^ 1u; // the coarser patch's border facing us
-	fc = drawn_border_factor(c, border_block(c_side, c_along), c_side);
+	fc = drawn_border_factor(c, border_block(c_side, c_along), c_side, cmorph);
 	return j;
 }
 
 // Seal records (lod_factors.comp writes one per quad, the evaluation shader reads it): for a
 // block on the patch's border, x for its west or east side and y for its north or south
 // side: j (bits 0-2, 0: nothing coarser across), the coarser patch's samples per segment of
-// its drawn edge there (bits 3-7) and its layer (bits 8-31); z, w for the patch corner the
-// quad touches, if any: the height sealed_height() gives there (float bits) and 1, or 0.
-uint seal_side(uint j, float fc, int clayer)
+// its drawn edge there (bits 3-7), its layer (bits 8-23; the pool has at most 65,535) and
+// that edge's morph byte (bits 24-31); z, w for the patch corner the quad touches, if any:
+// the height sealed_height() gives there (float bits) and 1, or 0.
+uint seal_side(uint j, float fc, int clayer, uint cmorph)
 {
-	return j == 0u ? 0u : j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | (uint(clayer) << 8u);
+	if (j == 0u)
+		return 0u;
+	return j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | ((uint(clayer) & 0xffffu) << 8u) | (cmorph << 24u);
 }
 
-// Height of patch c's border `side` as c draws it (segments of `step` of its samples), at
-// `along` finest samples from its sample 0: c's sample where it has a vertex, on the
-// segment between two elsewhere.
-float drawn_edge_height(Instance c, uint side, int along, int step)
+// Vertex i's height on a run of samples m0 + k dir drawn in segments of `step` samples with
+// morph byte `morph` (terrain_factors.glsl): its sample's, or for an odd vertex the blend
+// with the mean of its two neighbours. The evaluation shader and the seals both use this,
+// so a vertex two patches share gets the same bits in both.
+float morph_height(float lo, float h, float hi, uint morph)
+{
+	if (morph == MORPH_FULL)
+		return h;
+	precise float c = 0.5 * (lo + hi);
+	precise float r = c + (h - c) * (float(morph) * (1.0 / 256.0));
+	return r;
+}
+
+float run_vertex_height(Instance c, ivec2 m0, ivec2 dir, int i, int step, uint morph)
+{
+	float h = sample_height(c, m0 + dir * (i * step));
+	if ((i & 1) != 0 && morph != MORPH_FULL)
+		h = morph_height(sample_height(c, m0 + dir * ((i - 1) * step)), h, sample_height(c, m0 + dir * ((i + 1) * step)),
+		                 morph);
+	return h;
+}
+
+// Height of patch c's border `side` as c draws it (segments of `step` of its samples, morph
+// byte `morph`), at `along` finest samples from its sample 0: c's vertex height where it
+// has a vertex, on the segment between two elsewhere.
+float drawn_edge_height(Instance c, uint side, int along, int step, uint morph)
 {
 	int last = int(pc.P) - 1;
 	int step_g = step * c.scale, i0 = along / step_g, rem = along - i0 * step_g;
 	int across = side == 1u || side == 3u ? last : 0;
-	ivec2 ma = side >= 2u ? ivec2(across, i0 * step) : ivec2(i0 * step, across);
-	float ha = sample_height(c, ma);
+	ivec2 m0 = side >= 2u ? ivec2(across, 0) : ivec2(0, across), dir = side >= 2u ? ivec2(0, 1) : ivec2(1, 0);
+	float ha = run_vertex_height(c, m0, dir, i0, step, morph);
 	float h = ha;
 	if (rem != 0) {
-		ivec2 mb = ma + (side >= 2u ? ivec2(0, step) : ivec2(step, 0));
-		float hb = sample_height(c, mb);
+		float hb = run_vertex_height(c, m0, dir, i0 + 1, step, morph);
 		precise float hm = mix(ha, hb, float(rem) / float(step_g));
 		h = hm;
 	}
@@ -129,10 +160,10 @@ float sealed_side_height(Instance it, ivec2 si, uint side, uint rec)
 	uint j = rec & 7u;
 	int step = int((rec >> 3u) & 31u);
 	Instance c = coarser_at(it, j, neighbour_at(it, side) >> j);
-	c.layer = int(rec >> 8u);
+	c.layer = int((rec >> 8u) & 0xffffu);
 	ivec2 o = it.base + si * it.scale - c.base; // relative to the coarser patch's sample 0
 	uint cside = side ^ 1u;                    // its border facing us
-	return drawn_edge_height(c, cside, cside >= 2u ? o.y : o.x, step);
+	return drawn_edge_height(c, cside, cside >= 2u ? o.y : o.x, step, rec >> 24u);
 }
 
 // Height, in metres, at which every patch drawn around `it`'s border sample si puts a vertex
@@ -171,7 +202,9 @@ bool sealed_height(Instance it, ivec2 si, out float h)
 	int along = side >= 2u ? o.y : o.x;
 	int block_span = int(BLOCK_CELLS) * c.scale, b = int(pc.blocks);
 	int cb = min(along / block_span, b - 1);
-	int step = int(BLOCK_CELLS) / int(drawn_border_factor(c, border_block(side, cb), side)); // coarser samples per segment
-	h = drawn_edge_height(c, side, along, step);
+	uint morph;
+	// the coarser patch's samples per segment there
+	int step = int(BLOCK_CELLS) / int(drawn_border_factor(c, border_block(side, cb), side, morph));
+	h = drawn_edge_height(c, side, along, step, morph);
 	return true;
 }

@@ -63,6 +63,7 @@ struct config {
 	double param; /* tau_px, or target_px for distance */
 	struct relief_draw_options opts;
 	bool reference; /* the full-resolution render: fills run.ref_err */
+	bool morph;     /* the views geomorph (relief_view.morph) */
 };
 
 struct result {
@@ -204,6 +205,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	for (uint32_t i = 0; i < n && ret == 0; i++) {
 		struct relief_view view = r->views[i], *v = &view;
 		view.tau = c->param > 0 && c->opts.fine == RELIEF_FINE_ERRORS ? c->param : 1.0; /* the tessellator's tau */
+		view.morph = c->morph;
 		struct relief_terrain_stats st;
 		/* One untimed frame settles the view's hysteresis on the first pose. */
 		if (i == 0 && (ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1000, &c->opts, &st)) < 0)
@@ -214,6 +216,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			 * idempotent), so the timed frame below is unchanged. */
 			struct relief_view before = r->views[i - 1];
 			before.tau = view.tau;
+			before.morph = view.morph;
 			struct relief_draw_options o = c->opts;
 			o.lod_view = &before;
 			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0)
@@ -330,9 +333,9 @@ int bench_lod(int argc, char **argv)
 		{ "size", required_argument, NULL, 's' }, { "taus", required_argument, NULL, 'T' },
 		{ "targets", required_argument, NULL, 'P' }, { "device", required_argument, NULL, 'd' },
 		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
-		{ "help", no_argument, NULL, 'h' }, { 0 },
+		{ "morphed", no_argument, NULL, 'M' }, { "help", no_argument, NULL, 'h' }, { 0 },
 	};
-	bool json = false, unculled = false;
+	bool json = false, unculled = false, morphed = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	int ntau = 5, ntarget = 5;
@@ -364,9 +367,11 @@ int bench_lod(int argc, char **argv)
 			break;
 		case 'd': device = optarg; break;
 		case 'U': unculled = true; break;
+		case 'M': morphed = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
-			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--device DEV]\n"
+			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--morphed]\n"
+			       "                        [--device DEV]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -376,7 +381,9 @@ int bench_lod(int argc, char **argv)
 			       "(the second camera drawn with both frames' LOD), and cam_pop, the change between the\n"
 			       "two pictures, camera motion included. --unculled: relief and chunked also drawn\n"
 			       "without culling the blocks the camera cannot see (methods relief-unculled,\n"
-			       "chunked-unculled, taken in turn with the rest): what that culling saves.\n");
+			       "chunked-unculled, taken in turn with the rest): what that culling saves.\n"
+			       "--morphed: relief also drawn with geomorphing (method relief-morphed, views with\n"
+			       "morph set): what morphing costs and what it does to popping.\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -423,22 +430,31 @@ int bench_lod(int argc, char **argv)
 	}
 	flight(f, frames, w, h, r.views);
 
-	struct config cfg[1 + 8 * 5];
+	struct config cfg[1 + 8 * 6];
 	int n = 0;
 	cfg[n++] = (struct config){ "full-grid", 0, { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true };
 	for (int i = 0; i < ntau; i++)
-		cfg[n++] = (struct config){ "relief", taus[i], { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, false };
+		cfg[n++] = (struct config){ "relief", taus[i], { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, false, false };
 	for (int i = 0; i < ntarget; i++)
-		cfg[n++] = (struct config){ "distance", targets[i],
-		                            { .fine = RELIEF_FINE_DISTANCE, .target_px = (float)targets[i], .select_tau = 1e-4 }, false };
+		cfg[n++] = (struct config){
+			"distance", targets[i],
+			{ .fine = RELIEF_FINE_DISTANCE, .target_px = (float)targets[i], .select_tau = 1e-4 }, false, false
+		};
 	for (int i = 0; i < ntau; i++)
-		cfg[n++] = (struct config){ "chunked", taus[i], { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }, false };
+		cfg[n++] = (struct config){ "chunked", taus[i], { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }, false, false };
 	for (int i = 0; i < ntau && unculled; i++) {
-		cfg[n++] = (struct config){ "relief-unculled", taus[i],
-		                            { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i], .no_block_cull = true }, false };
-		cfg[n++] = (struct config){ "chunked-unculled", taus[i],
-		                            { .fine = RELIEF_FINE_FULL, .select_tau = taus[i], .no_block_cull = true }, false };
+		cfg[n++] = (struct config){
+			"relief-unculled", taus[i],
+			{ .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i], .no_block_cull = true }, false, false
+		};
+		cfg[n++] = (struct config){
+			"chunked-unculled", taus[i],
+			{ .fine = RELIEF_FINE_FULL, .select_tau = taus[i], .no_block_cull = true }, false, false
+		};
 	}
+	for (int i = 0; i < ntau && morphed; i++)
+		cfg[n++] = (struct config){ "relief-morphed", taus[i], { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] },
+		                            false, true };
 	if (!json) {
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 		printf("relief bench lod: %s, flight of %u key poses (%u frames, popping between frames %.1f m apart) "
@@ -452,7 +468,7 @@ int bench_lod(int argc, char **argv)
 	/* Runs go round the configurations, so that a slow spell of the machine spreads over
 	 * all of them; errors are measured on the first run (they do not change). */
 	const size_t per_run = 2 * (size_t)frames;
-	struct result res[1 + 8 * 5] = { 0 };
+	struct result res[1 + 8 * 6] = { 0 };
 	const size_t total = (size_t)n * runs * per_run;
 	double *ms = calloc(3 * total, sizeof(double));
 	if (!ms) {

@@ -39,6 +39,7 @@ static void fly_usage(FILE *f)
 		"  --size WxH         per channel (default 640x360)\n"
 		"  --fov DEG          vertical field of view (default 50)\n"
 		"  --tau PX           screen-space error threshold in pixels (default 1)\n"
+		"  --morph            geomorph changes of level (a blend, not a pop; docs/lod.md)\n"
 		"  --budget MIB       GPU memory for the patch cache (default 256)\n"
 		"  --workers N        entropy-decoding threads (default 1)\n"
 		"  --out DIR          write every frame: DIR/frame-NNNNN[-cK].png\n"
@@ -99,12 +100,12 @@ int cmd_fly(int argc, char **argv)
 		{ "workers", required_argument, NULL, 'w' }, { "out", required_argument, NULL, 'o' },
 		{ "json", no_argument, NULL, 'J' },          { "device", required_argument, NULL, 'd' },
 		{ "validation", no_argument, NULL, 'V' },    { "help", no_argument, NULL, 'h' },
-		{ 0 },
+		{ "morph", no_argument, NULL, 'M' },         { 0 },
 	};
 	const char *track_path = NULL, *out_dir = NULL, *device = NULL;
 	double seconds = -1, fps = 60, fov = 50, tau = 1;
 	uint32_t channels = 1, width = 640, height = 360, budget = 256, workers = 1;
-	bool json = false, validation = false;
+	bool json = false, validation = false, morph = false;
 	int c;
 	opterr = 0;
 	while ((c = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
@@ -144,6 +145,7 @@ int cmd_fly(int argc, char **argv)
 			break;
 		case 'o': out_dir = optarg; break;
 		case 'J': json = true; break;
+		case 'M': morph = true; break;
 		case 'd': device = optarg; break;
 		case 'V': validation = true; break;
 		case 'h': fly_usage(stdout); return 0;
@@ -203,7 +205,7 @@ int cmd_fly(int argc, char **argv)
 		farthest = fmax(farthest, sqrt((q->x - cx) * (q->x - cx) + (q->y - cy) * (q->y - cy) + (q->z - cz) * (q->z - cz)));
 	}
 	struct relief_view base = {
-		.fovy = fov * M_PI / 180.0, .width = width, .height = height, .tau = tau,
+		.fovy = fov * M_PI / 180.0, .width = width, .height = height, .tau = tau, .morph = morph,
 	};
 	/* Check the camera parameters once, on the first pose, before any GPU work. */
 	struct track_key k;
@@ -315,18 +317,20 @@ int cmd_fly(int argc, char **argv)
 		       "\"frames_incomplete\":%u,\"first_complete_frame\":%ld,\"first_complete_ms\":%.1f,"
 		       "\"last_incomplete_frame\":%ld,"
 		       "\"decoded\":%llu,\"evicted\":%llu,\"bad\":%llu,\"layers_used\":%u,\"layers\":%u,\"budget_mib\":%u,"
-		       "\"workers\":%u",
+		       "\"workers\":%u,\"morph\":%s",
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
 		       gpu_med, gpu_p95, tri_med, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
-		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
+		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers,
+		       morph ? "true" : "false");
 		printf(",\"patches_by_level_last_frame\":[");
 		for (uint32_t l = 0; l < f->hdr.levels; l++)
 			printf("%s%u", l ? "," : "", s.last_levels[l]);
 		printf("]");
 		bench_json_machine(g.vk->props.deviceName);
 	} else {
-		printf("relief fly: %s, %u frames of %u channel(s) at %ux%u, tau %g px, %.2f s of track at %g Hz, on %s\n",
-		       path, frames, channels, width, height, tau, seconds, fps, g.vk->props.deviceName);
+		printf("relief fly: %s, %u frames of %u channel(s) at %ux%u, tau %g px%s, %.2f s of track at %g Hz, on %s\n",
+		       path, frames, channels, width, height, tau, morph ? " morphed" : "", seconds, fps,
+		       g.vk->props.deviceName);
 		printf("  frame wall ms      median %.2f  p95 %.2f  max %.2f (drawing %u channel(s) and waiting for them)\n",
 		       wall_med, wall_p95, wall_max, channels);
 		printf("  cache update ms    median %.3f  max %.3f (never waits for a decode)\n", upd_med, upd_max);

@@ -31,6 +31,7 @@ static void snap_usage(FILE *f)
 		"      --size WxH       viewport (default 1280x720)\n"
 		"      --tau PX         screen-space error threshold in pixels (default 1)\n"
 		"      --wire           overlay the wireframe\n"
+		"      --morph          geomorph changes of level (a blend, not a pop; docs/lod.md)\n"
 		"      --depth FILE     distance along the view axis per pixel: little-endian float32,\n"
 		"                       row-major from the top row, +infinity where no terrain is seen\n"
 		"      --budget MIB     GPU memory for the patch cache (default 256)\n"
@@ -47,11 +48,12 @@ int cmd_snap(int argc, char **argv)
 		{ "wire", no_argument, NULL, 'w' },         { "depth", required_argument, NULL, 'D' },
 		{ "budget", required_argument, NULL, 'b' }, { "device", required_argument, NULL, 'd' },
 		{ "validation", no_argument, NULL, 'V' },   { "help", no_argument, NULL, 'h' },
-		{ "roll", required_argument, NULL, 'r' },   { 0 },
+		{ "roll", required_argument, NULL, 'r' },   { "morph", no_argument, NULL, 'M' },
+		{ 0 },
 	};
 	const char *output = NULL, *depth_path = NULL, *device = NULL;
 	double cam[3], look[3], fov = 50.0, tau = 1.0, roll = 0.0;
-	bool have_cam = false, have_look = false, wire = false, validation = false;
+	bool have_cam = false, have_look = false, wire = false, validation = false, morph = false;
 	uint32_t width = 1280, height = 720, budget = 256;
 	int c;
 	opterr = 0;
@@ -85,6 +87,7 @@ int cmd_snap(int argc, char **argv)
 				return EXIT_USAGE;
 			break;
 		case 'w': wire = true; break;
+		case 'M': morph = true; break;
 		case 'D': depth_path = optarg; break;
 		case 'b':
 			if (!cli_parse_u32("snap", "--budget", optarg, 1, 1048576, &budget))
@@ -127,6 +130,7 @@ int cmd_snap(int argc, char **argv)
 		.znear = fmax(0.05, reach * 2e-6),
 		.zfar = 2.0 * reach,
 		.tau = tau,
+		.morph = morph,
 	};
 	const char *why;
 	if (relief_view_check(&view, &why) < 0) {

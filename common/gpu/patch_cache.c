@@ -99,7 +99,8 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 		drawable += !(r.flags & RELIEF_PATCH_EMPTY);
 	}
 
-	uint32_t cap = vk->props.limits.maxImageArrayLayers;
+	/* Seal records carry a layer in 16 bits (shaders/terrain_seal.glsl). */
+	uint32_t cap = vk->props.limits.maxImageArrayLayers < 0xffffu ? vk->props.limits.maxImageArrayLayers : 0xffffu;
 	if (cap > drawable)
 		cap = drawable;
 	if (c->o.max_layers && cap > c->o.max_layers)

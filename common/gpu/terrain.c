@@ -82,12 +82,14 @@ struct counters {
  * bit 4 no block culling. */
 #define MODE_NO_SKIRTS 8u
 #define MODE_NO_BLOCK_CULL 16u
+#define MODE_MORPH 32u
 
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
- * 13 tessellation factors, 14 curtains (terrain-edge sides of drawn patches), 15 the draw
- * camera's view-projection (float[16]), 16 seal records (uvec4 per quad, terrain_seal.glsl),
+ * 13 tessellation factors and morph bytes (uvec4 per quad, lod_factors.comp), 14 curtains
+ * (terrain-edge sides of drawn patches), 15 the draw camera's view-projection (float[16]),
+ * 16 seal records (uvec4 per quad, terrain_seal.glsl),
  * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
  * 18 the cache's use distances (patch_cache.h, pool.use_dist). */
 #define BINDINGS 19u
@@ -282,7 +284,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->wants, sizeof(struct want) * WANT_CAP, storage, true)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->factors, 8 * (VkDeviceSize)t->max_quads + 8, storage, false)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage,
 	                                 false)) < 0 ||
@@ -489,7 +491,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->timer.pool)
 		relief_vk_timer_write(&t->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
-	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u);
+	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) | (view->morph ? MODE_MORPH : 0u);
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);

@@ -136,6 +136,10 @@ expect_text snap-bad-roll-named "--roll"
 # straight down (north up) and banked views render
 vkcheck snap-nadir 0 "$relief" snap "$tmp/ps.relief" --camera 128480,79200,9000 --look 128480,79200,0 --size 48x32 -o "$tmp/nadir.png"
 vkcheck snap-roll 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --roll -30 --size 48x32 -o "$tmp/roll.png"
+# --morph: the same level of detail (patches, triangles), only vertex heights blend
+vkcheck snap-morph 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 \
+	-o "$tmp/morph.png" --morph
+expect_text snap-morph-summary "patches in"
 # relief fly: a short default flight from a cold cache, a track with two channels, bad tracks
 vkcheck fly 0 "$relief" fly "$tmp/ps.relief" --seconds 0.1 --size 64x36 --json
 expect_text fly-fields '"frames":7,"channels":1,"width":64,"height":36,"tau_px":1,"fps":60,'
@@ -191,6 +195,17 @@ if [ -n "$culled" ] && [ -n "$unculled" ] && awk -v a="$culled" -v b="$unculled"
 	passes=$((passes + 1))
 else
 	echo "FAIL bench lod --unculled: triangles $culled culled, $unculled not; errors differ?"
+	fails=$((fails + 1))
+fi
+# --morphed: relief also drawn with geomorphing; the same triangles, every error within tau
+vkcheck bench-lod-morphed 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \
+	--morphed --json
+n=$(grep -c '"method":' <<<"$LAST_OUT")
+if [ "$n" -eq 5 ] && [ "$(field relief triangles)" = "$(field relief-morphed triangles)" ] &&
+	awk -v e="$(field relief-morphed max_err_px)" 'BEGIN { exit !(e != "" && e <= 1.0) }'; then
+	passes=$((passes + 1))
+else
+	echo "FAIL bench lod --morphed: $n records, triangles $(field relief triangles) and $(field relief-morphed triangles)"
 	fails=$((fails + 1))
 fi
 vkcheck bench-lod-zero-runs 2 "$relief" bench lod "$tmp/ps.relief" --runs 0

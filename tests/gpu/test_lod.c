@@ -330,13 +330,14 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 		struct relief_terrain_stats st;
 		render(&s, &v, ref, &st);
 		uint32_t ref_patches = st.patches;
-		for (size_t k = 0; k < sizeof(taus) / sizeof(taus[0]); k++) {
-			v.tau = taus[k];
+		for (size_t k = 0; k < 2 * sizeof(taus) / sizeof(taus[0]); k++) {
+			v.tau = taus[k / 2];
+			v.morph = k % 2; /* each tau without and with morphing */
 			render(&s, &v, lod, &st);
 			struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
-			print_message("%s pose %zu tau %g: %u patches (reference %u), %u holes, max vertical error %.3f px "
-			              "(%.2f m) over %u pixels\n", test_dem_name(dem), p, v.tau, st.patches, ref_patches, c.holes,
-			              c.worst_px, c.worst_m, c.both);
+			print_message("%s pose %zu tau %g%s: %u patches (reference %u), %u holes, max vertical error %.3f px "
+			              "(%.2f m) over %u pixels\n", test_dem_name(dem), p, v.tau, v.morph ? " morphed" : "",
+			              st.patches, ref_patches, c.holes, c.worst_px, c.worst_m, c.both);
 			assert_int_equal(c.holes, 0);
 			assert_true(ref_patches > 0 && st.patches > 0);
 			assert_true(c.both > BW * BH / 8); /* the view really shows terrain */
@@ -352,8 +353,9 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
  * identically and put its vertices at the same bits; between levels the finer patch draws
  * its border with the coarser patch's vertices, on its drawn edge. So no crack opens even
  * with skirts off (a test-only option; interior borders have none anyway, the terrain's edge
- * keeps its curtain). Each pose at tau = 1 and 6, tessellated below full resolution
- * (checked), single- and mixed-level (checked: both kinds occur).
+ * keeps its curtain). Each pose at tau = 1 and 6, without and with morphing (whose seals
+ * carry the coarser edge's blend), tessellated below full resolution (checked), single-
+ * and mixed-level (checked: both kinds occur).
  * Negative controls, run by hand when each part was written: with border factors chosen from
  * each patch's own blocks (before border_errors() in terrain_factors.glsl), Puget pose 0 and
  * Mont Blanc poses 0-2 showed 18, 2, 3 and 11 holes at tau = 1; without the cross-level part
@@ -371,15 +373,16 @@ static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n
 		struct relief_terrain_stats st;
 		render(&s, &v, b.ref, &st);
 		uint64_t full_triangles = st.triangles;
-		for (size_t k = 0; k < sizeof(taus) / sizeof(taus[0]); k++) {
-			v.tau = taus[k];
+		for (size_t k = 0; k < 2 * sizeof(taus) / sizeof(taus[0]); k++) {
+			v.tau = taus[k / 2];
+			v.morph = k % 2;
 			render_with(&s, &v, &bare, b.lod, &st);
 			uint32_t n, levels = drawn_levels(&s, ids, &n);
 			struct comparison c = compare(&s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
-			print_message("%s pose %zu tau %g, no skirts: %u patches, level mask 0x%x, %llu triangles (full %llu), "
-			              "%u holes, max vertical error %.3f px over %u pixels\n", test_dem_name(dem), p, v.tau, n,
-			              levels, (unsigned long long)st.triangles, (unsigned long long)full_triangles, c.holes,
-			              c.worst_px, c.both);
+			print_message("%s pose %zu tau %g%s, no skirts: %u patches, level mask 0x%x, %llu triangles (full "
+			              "%llu), %u holes, max vertical error %.3f px over %u pixels\n", test_dem_name(dem), p, v.tau,
+			              v.morph ? " morphed" : "", n, levels, (unsigned long long)st.triangles,
+			              (unsigned long long)full_triangles, c.holes, c.worst_px, c.both);
 			*level_kinds |= (levels & (levels - 1)) ? 2u : 1u;
 			assert_true(n >= 4);
 			assert_true(st.triangles < full_triangles);
@@ -979,6 +982,101 @@ static void test_no_lone_centre_fan(void **state)
 	benchmark_frame_within_tau(DEM_PUGET, &v, 2.0, "fan frame");
 }
 
+/* v0 moved by `along` metres north-east (the flight's direction). */
+static struct relief_view view_along(const struct relief_view *v0, double along)
+{
+	struct relief_view v = *v0;
+	const double c = along / sqrt(2.0);
+	v.eye.x += c, v.eye.y += c, v.target.x += c, v.target.y += c;
+	return v;
+}
+
+/* What the change of level of detail from camera `from` to camera `to` alone does to the
+ * picture: `to` drawn with its own LOD and with `from`'s (frozen; `from` drawn first, so
+ * that its selection is settled), and at each pixel showing terrain in both the change of
+ * the drawn point's signed vertical distance to one fixed surface (the mean of a finest
+ * cell's two diagonals, lod.h), in pixels; the largest. */
+static double lod_pop(struct scene *s, const float *finest, uint32_t fw, uint32_t fh, const struct relief_view *from,
+                      struct relief_view *to, bool morph, float *own, float *frozen)
+{
+	struct relief_terrain_stats st;
+	struct relief_view f = *from;
+	f.morph = to->morph = morph;
+	const struct relief_draw_options o = { 0 }, of = { .lod_view = &f };
+	render_with(s, &f, &o, own, &st);
+	render_with(s, to, &of, frozen, &st);
+	render_with(s, to, &o, own, &st);
+	double worst = 0;
+	for (int y = 0; y < (int)to->height; y++)
+		for (int x = 0; x < (int)to->width; x++) {
+			size_t k = (size_t)y * to->width + x;
+			if (!(own[k] > 0.0f && frozen[k] > 0.0f))
+				continue;
+			struct relief_vec3 p = relief_view_unproject(to, x, y, own[k]), q = relief_view_unproject(to, x, y, frozen[k]);
+			double mp, mq;
+			relief_surface_vertical_error(s->f, finest, fw, fh, 1, p, &mp);
+			relief_surface_vertical_error(s->f, finest, fw, fh, 1, q, &mq);
+			double a = relief_view_segment_px(to, p, fabs(mp)), b = relief_view_segment_px(to, q, fabs(mq));
+			if (isfinite(a) && isfinite(b))
+				worst = fmax(worst, fabs((mp < 0 ? -a : a) - (mq < 0 ? -b : b)));
+		}
+	return worst;
+}
+
+/* Geomorphing makes a change of a block's level continuous. From key pose 0 of `relief
+ * bench lod` on Puget Sound (480 x 270, tau = 1), the camera moves along the flight, one
+ * frame (4.2 m) at a time doubled, until without morphing the change of LOD alone moves
+ * some pixel by 0.05 px or more; bisection then narrows that move to under 1 cm. Without
+ * morphing, the new vertices take their own heights at once (the control, which shows that
+ * the test can fail); with morphing they start on the coarser level's surface, and the
+ * same 1 cm move changes the picture by what it moves the blends. */
+static void test_morph_continuous(void **state)
+{
+	struct scene s;
+	const uint32_t W = 480, H = 270;
+	scene_open(&s, DEM_PUGET, 1.0, W, H);
+	load_everything(&s);
+	uint32_t fw, fh;
+	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh), *own = malloc(sizeof(float) * W * H);
+	float *frozen = malloc(sizeof(float) * W * H);
+	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
+	const struct relief_view v0 = {
+		.eye = { 49211.2, 49249.6, 3603.84 }, .target = { 81979.2, 82017.6, -10298.56 },
+		.fovy = 55 * M_PI / 180, .width = W, .height = H, .znear = 1, .zfar = 551007, .tau = 1.0,
+	};
+	const double visible = 0.05;
+	double a = 0, b = 250.0 / 60.0;
+	struct relief_view va = view_along(&v0, a), vb;
+	for (;; b *= 2) {
+		assert_true(b < 500);
+		vb = view_along(&v0, b);
+		if (lod_pop(&s, finest, fw, fh, &va, &vb, false, own, frozen) >= visible)
+			break;
+	}
+	while (b - a > 0.01) {
+		double m = 0.5 * (a + b);
+		struct relief_view vm = view_along(&v0, m);
+		if (lod_pop(&s, finest, fw, fh, &va, &vm, false, own, frozen) >= visible)
+			b = m;
+		else {
+			a = m;
+			va = vm;
+		}
+	}
+	vb = view_along(&v0, b);
+	double plain = lod_pop(&s, finest, fw, fh, &va, &vb, false, own, frozen);
+	double morphed = lod_pop(&s, finest, fw, fh, &va, &vb, true, own, frozen);
+	print_message("a change of LOD between cameras %.1f mm apart (%.3f m on): the largest pixel moves %.4f px "
+	              "unmorphed, %.4f px morphed\n", 1000 * (b - a), a, plain, morphed);
+	assert_true(plain >= visible);
+	assert_true(morphed < 0.1 * plain);
+	free(finest);
+	free(own);
+	free(frozen);
+	scene_close(&s);
+}
+
 /* Patch corners and T-junctions between levels, looking down at patch corners of Puget
  * Sound from 6 km at coarse thresholds, skirts off: no crack. The six views come from a
  * sweep of 147 views around every level-3 patch corner at tau 2, 4, 8 and 16 (clean now):
@@ -1009,13 +1107,16 @@ static void test_sealed_corners(void **state)
 		struct relief_terrain_stats st;
 		render(&s, &v, b.ref, &st);
 		v.tau = views[i].tau;
-		render_with(&s, &v, &bare, b.lod, &st);
-		uint32_t n, levels = drawn_levels(&s, ids, &n);
-		struct comparison c = compare(&s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
-		print_message("corner view %zu (tau %g): %u patches, level mask 0x%x, %u holes\n", i, v.tau, n, levels,
-		              c.holes);
-		assert_int_equal(c.holes, 0);
-		assert_true((levels & (levels - 1)) != 0); /* several levels meet in the frame */
+		for (int morph = 0; morph < 2; morph++) {
+			v.morph = morph;
+			render_with(&s, &v, &bare, b.lod, &st);
+			uint32_t n, levels = drawn_levels(&s, ids, &n);
+			struct comparison c = compare(&s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
+			print_message("corner view %zu (tau %g%s): %u patches, level mask 0x%x, %u holes\n", i, v.tau,
+			              morph ? ", morphed" : "", n, levels, c.holes);
+			assert_int_equal(c.holes, 0);
+			assert_true((levels & (levels - 1)) != 0); /* several levels meet in the frame */
+		}
 	}
 	free(ids);
 	bound_close(&b);
@@ -1278,6 +1379,7 @@ int main(void)
 		cmocka_unit_test(test_watertight_and_error_bound_puget),
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_no_lone_centre_fan),
+		cmocka_unit_test(test_morph_continuous),
 		cmocka_unit_test(test_sealed_borders),
 		cmocka_unit_test(test_edge_curtain),
 		cmocka_unit_test(test_banked_and_nadir_views),
