@@ -1126,7 +1126,7 @@ static void test_sealed_corners(void **state)
  * and in the plane of two patch borders, one far outside the terrain, and extreme
  * thresholds. Every depth is a finite reversed-Z value in [0, 1] (no NaN), the draw succeeds
  * and converges, tau = 1e6 draws the root alone, tau = 1e-4 draws only finest patches, and
- * the validation layer stays silent. */
+ * the validation layer stays silent; each without and with morphing. */
 static void test_hard_views(void **state)
 {
 	struct bound_scene b;
@@ -1140,9 +1140,10 @@ static void test_hard_views(void **state)
 		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 1e-4 },    /* everything finest */
 	};
 	uint32_t *ids = malloc(4 * b.s.f->hdr.patch_count);
-	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
-		struct relief_view v = pose_view(&cases[c].pose);
-		v.tau = cases[c].tau;
+	for (size_t c = 0; c < 2 * sizeof(cases) / sizeof(cases[0]); c++) { /* each without, then with morphing */
+		struct relief_view v = pose_view(&cases[c / 2].pose);
+		v.tau = cases[c / 2].tau;
+		v.morph = c % 2;
 		v.zfar = 2e6;
 		struct relief_terrain_stats st;
 		render(&b.s, &v, b.lod, &st);
@@ -1154,8 +1155,8 @@ static void test_hard_views(void **state)
 		uint32_t n, levels = drawn_levels(&b.s, ids, &n);
 		uint32_t coarsest = levels ? (uint32_t)__builtin_ctz(levels) : 99u;
 		uint32_t finest = levels ? 31u - (uint32_t)__builtin_clz(levels) : 0u;
-		print_message("hard view %zu (tau %g): %u patches, levels %u-%u, %u terrain pixels, %u bad depths\n", c,
-		              v.tau, n, coarsest, finest, terrain, bad);
+		print_message("hard view %zu (tau %g%s): %u patches, levels %u-%u, %u terrain pixels, %u bad depths\n",
+		              c / 2, v.tau, v.morph ? ", morphed" : "", n, coarsest, finest, terrain, bad);
 		assert_int_equal(bad, 0);
 		if (v.tau >= 1e6)
 			assert_true(n == 1 && ids[0] == 0);
@@ -1192,8 +1193,9 @@ static void test_old_version_renders(void **state)
 }
 
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
- * renders the same frame from the same relative camera: positions are camera-relative. */
-static void test_huge_coordinates(void **state)
+ * renders the same frame from the same relative camera, without and with morphing:
+ * positions are camera-relative. */
+static void huge_coordinates(bool morph)
 {
 	enum { W = 256, H = 144 };
 	const double dx = 500000.0, dy = 5000000.0;
@@ -1205,6 +1207,7 @@ static void test_huge_coordinates(void **state)
 		struct relief_view v = {
 			.eye = { ox + 20000, oy + 20000, 5200 }, .target = { ox + 30000, oy + 40000, 3500 },
 			.fovy = 60 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 3e5, .tau = 1,
+			.morph = morph,
 		};
 		float *depth = malloc(sizeof(float) * W * H);
 		struct relief_terrain_stats st;
@@ -1221,6 +1224,12 @@ static void test_huge_coordinates(void **state)
 	assert_memory_equal(frames[0], frames[1], W * H * 4);
 	free(frames[0]);
 	free(frames[1]);
+}
+
+static void test_huge_coordinates(void **state)
+{
+	huge_coordinates(false);
+	huge_coordinates(true); /* the blend is worked out camera-relative too */
 	gpu_test_assert_clean(vk);
 }
 
