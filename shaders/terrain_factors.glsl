@@ -113,8 +113,8 @@ float allowed_error(vec4 c)
 // no longer pops, and the blend is done within the first 1 / MORPH_RATE of the
 // level's error range. With t0 itself (a rate of 1) every block is always part-way and the
 // surface as coarse as tau allows: on a 48-pair Puget Sound flight the RMS error doubled
-// and popping at tau = 1 rose; a rate of 4 costs about 10 % RMS error and pops less than
-// no morphing at tau = 1, 4 and 8 (docs/lod.md, "Morphing"). t travels as a morph byte m,
+// and popping at tau = 1 rose; a rate of 4 costs 5-30 % RMS error and lowers the largest
+// per-frame changes at every tau (docs/lod.md, "Morphing"). t travels as a morph byte m,
 // t = m / 256, rounded up (a larger t only lowers the bound); MORPH_FULL (255) means t = 1,
 // and is what a view without morphing (relief_view.morph, MODE_MORPH) and the baselines use:
 // their factor pass then works out no allowed error, and the evaluation shader skips the
@@ -240,7 +240,8 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 	}
 	// An interior of factor 1 against a finer edge is drawn by the tessellator as its
 	// centre alone (inner factor 1 rounds up to 2): with morphing that centre takes the
-	// mean of the corners (t = 0), which level 4's two triangulations bound.
+	// mean of the corners (t = 0), level 4's own surface there up to the diagonal, rather
+	// than a sample of its own.
 	if (d == 4) {
 		morph = morph_on() ? 0u : MORPH_FULL;
 		return 1.0;

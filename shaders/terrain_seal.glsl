@@ -70,9 +70,10 @@ Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
 }
 
 // Border block bl on `side` against a coarser patch drawn across it: the coarser patch's
-// factor for its block edge that holds this one, its morph byte, and j. The caller draws this edge with
-// that patch's vertices only (factor fc / 2^j, at least 1) and the evaluation shader
-// puts them on its drawn edge, so the border has no crack and needs no skirt.
+// factor for its block edge that holds this one, that edge's morph byte, and j. The caller
+// draws this edge with that patch's vertices only (factor fc / 2^j, at least 1) and the
+// evaluation shader puts them on its drawn edge, so the border has no crack and needs no
+// skirt.
 uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer, out uint cmorph)
 {
 	uint cid;
