@@ -54,7 +54,8 @@ struct relief_draw_options {
 	/* Non-NULL: choose the level of detail (selection, tessellation) for this view and draw
 	 * it from `view` (same viewport size): a frozen LOD, for measuring what LOD changes
 	 * alone do to the picture (`relief bench lod` popping) and for inspecting a view's LOD
-	 * from elsewhere. The view's hysteresis state is used and updated as for lod_view. */
+	 * from elsewhere. The view's hysteresis state is used and updated as for lod_view.
+	 * Morphing follows the drawn view's `morph`; its blend is worked out for lod_view. */
 	const struct relief_view *lod_view;
 };
 
