@@ -5,6 +5,8 @@
  *               (Cantlay / Sascha Willems style, no error metric), target_px per triangle;
  *   chunked     the same quadtree selection with tau, patches at full resolution
  *               (no fine tessellation LOD).
+ * On request, relief again with views that geomorph (--morphed, relief-morphed) and relief
+ * and chunked without block culling (--unculled).
  * The cache is warm (every patch resident), so frames measure LOD, not streaming.
  *
  * Error: at every pixel showing terrain, the vertical distance from the drawn surface to the
