@@ -216,17 +216,22 @@ vec4 nearest_point(Instance it, vec2 lo, float h)
 // test pixel 1.007 px off at tau = 1. And never an inner factor of 2 against an edge of 4
 // or more: the interior is then the block's centre alone, and every triangle joins it to
 // an edge segment, a triangulation of no level d that no eps_d bounds; at 1280 x 720 such
-// a block was 112 m off, 2.05 px at tau = 2 (docs/lod.md, known issues). That rule costs
-// 0-8 % more triangles. (A centre alone against edges of 2 and 1 segments, inner factor 1
-// rounded up to 2 by the tessellator, remains: it is not measured either.)
+// a block was 112 m off, 2.05 px at tau = 2 (docs/lod.md, known issues). But not when an
+// edge has a single segment: the raised interior then makes long transition triangles from
+// that segment to its inner ring, and on the 48-pair flight one such block was 255 m off,
+// 2.65 px at tau = 2 (eighth December session; 1.84 px without the rule). With that limit
+// the rule costs 0-4.5 % more triangles. (A centre alone against edges of 2 and 1 segments,
+// inner factor 1 rounded up to 2 by the tessellator, and the fan kept next to a single
+// segment, remain: they are not measured either.)
 float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges, out uint morph)
 {
 	// Levels coarser than the limit are not tried: the search starts there, and each level
 	// stops at its first point over tau (passing is monotone in d, eps being so).
 	float finest_edge = max(max(edges.x, edges.y), max(edges.z, edges.w));
 	float least = 0.5 * finest_edge;
-	if (least == 2.0)
-		least = finest_edge; // not the centre alone against edges of 4 (above)
+	float coarsest_edge = min(min(edges.x, edges.y), min(edges.z, edges.w));
+	if (least == 2.0 && coarsest_edge >= 2.0)
+		least = finest_edge; // not the centre alone against edges of 4, unless an edge has one segment (above)
 	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
 	vec4 near = nearest_point(it, lo, h);
 	int d = top;

@@ -982,6 +982,22 @@ static void test_no_lone_centre_fan(void **state)
 	benchmark_frame_within_tau(DEM_PUGET, &v, 2.0, "fan frame");
 }
 
+/* An interior raised for the fan rule next to an edge of one segment makes long transition
+ * triangles from that segment to its inner ring. In this frame (`relief bench lod --frames
+ * 48` on Puget Sound, key pose 31, 480 x 270, tau = 2) one such strip put a pixel 255 m off,
+ * 2.652 px, and it stayed over tau at three times the resolution (geometry, not the
+ * rasteriser); the rule now applies only when every edge has two segments or more.
+ * Negative control, run when this test was written: with the rule applied there too the
+ * frame measures 2.843 px (275 m) and the test fails; 1.617 px now. */
+static void test_fan_rule_spares_single_segment_edges(void **state)
+{
+	struct relief_view v = {
+		.eye = { 59792.533, 59830.933, 3603.84 }, .target = { 92560.533, 92598.933, -10298.445 },
+		.fovy = 55 * M_PI / 180, .width = 480, .height = 270, .znear = 1, .zfar = 551005.5,
+	};
+	benchmark_frame_within_tau(DEM_PUGET, &v, 2.0, "single-segment strip frame");
+}
+
 /* v0 moved by `along` metres north-east (the flight's direction). */
 static struct relief_view view_along(const struct relief_view *v0, double along)
 {
@@ -1388,6 +1404,7 @@ int main(void)
 		cmocka_unit_test(test_watertight_and_error_bound_puget),
 		cmocka_unit_test(test_watertight_and_error_bound_alps),
 		cmocka_unit_test(test_no_lone_centre_fan),
+		cmocka_unit_test(test_fan_rule_spares_single_segment_edges),
 		cmocka_unit_test(test_morph_continuous),
 		cmocka_unit_test(test_sealed_borders),
 		cmocka_unit_test(test_edge_curtain),
