@@ -30,39 +30,38 @@ precise gl_Position; // shared border vertices get identical bits in both patche
 // on the terrain's edge) morphs along its top edge like the block above it.
 float morphed_height(Instance it, ivec2 si, ivec2 lo, ivec2 hi, bool curtain, float h)
 {
-	if (curtain) {
-		ivec2 dir = clamp(hi - lo, ivec2(-1), ivec2(1));
-		int step = int(BLOCK_CELLS) / int(in_factors.x >> 8u & 0xffu), i = abs((si - lo).x + (si - lo).y) / step;
-		return (i & 1) != 0 ? morph_height(sample_height(it, si - dir * step), h, sample_height(it, si + dir * step),
-		                                   in_factors.z & 0xffu)
-		                    : h;
-	}
+	// An outer edge k (factor order: west, north, east, south) or a curtain's top edge, along
+	// dir from lo; a curtain's morph bytes are all its border edge's.
+	uint k;
+	ivec2 dir;
 	bool w = si.x == lo.x, e = si.x == hi.x, n = si.y == lo.y, s = si.y == hi.y;
-	if ((w || e) && (n || s))
+	if (curtain) {
+		k = 1u;
+		dir = clamp(hi - lo, ivec2(-1), ivec2(1));
+	} else if ((w || e) && (n || s)) {
 		return h; // a block corner: on every level
-	if (w || e || n || s) {
-		uint k = w ? 0u : n ? 1u : e ? 2u : 3u; // outer factor order: west, north, east, south
-		ivec2 dir = (w || e) ? ivec2(0, 1) : ivec2(1, 0);
-		int step = int(BLOCK_CELLS) / int(in_factors.x >> (8u * k) & 0xffu);
-		int i = ((w || e) ? si.y - lo.y : si.x - lo.x) / step;
-		return (i & 1) != 0 ? morph_height(sample_height(it, si - dir * step), h, sample_height(it, si + dir * step),
-		                                   (in_factors.z >> (8u * k)) & 0xffu)
-		                    : h;
+	} else if (w || e || n || s) {
+		k = w ? 0u : n ? 1u : e ? 2u : 3u;
+		dir = (w || e) ? ivec2(0, 1) : ivec2(1, 0);
+	} else {
+		int step = int(BLOCK_CELLS) / max(int(in_factors.y & 0xffu), 2);
+		ivec2 ij = (si - lo) / step;
+		uint m = (in_factors.y >> 16u) & 0xffu;
+		if ((ij.x & 1) != 0 && (ij.y & 1) != 0) { // a cell's centre: the mean of both diagonals' ends
+			float a = sample_height(it, si + ivec2(-step, -step)), b = sample_height(it, si + ivec2(step, step));
+			float c = sample_height(it, si + ivec2(step, -step)), d = sample_height(it, si + ivec2(-step, step));
+			precise float ab = 0.5 * (a + b), cd = 0.5 * (c + d);
+			return morph_height(ab, h, cd, m);
+		}
+		if ((ij.x & 1) != 0)
+			return morph_along(it, si, ivec2(1, 0), step, h, m);
+		if ((ij.y & 1) != 0)
+			return morph_along(it, si, ivec2(0, 1), step, h, m);
+		return h;
 	}
-	int step = int(BLOCK_CELLS) / max(int(in_factors.y & 0xffu), 2);
-	ivec2 ij = (si - lo) / step;
-	uint m = (in_factors.y >> 16u) & 0xffu;
-	if ((ij.x & 1) != 0 && (ij.y & 1) != 0) { // a cell's centre: the mean of both diagonals' ends
-		float a = sample_height(it, si + ivec2(-step, -step)), b = sample_height(it, si + ivec2(step, step));
-		float c = sample_height(it, si + ivec2(step, -step)), d = sample_height(it, si + ivec2(-step, step));
-		precise float ab = 0.5 * (a + b), cd = 0.5 * (c + d);
-		return morph_height(ab, h, cd, m);
-	}
-	if ((ij.x & 1) != 0)
-		return morph_height(sample_height(it, si - ivec2(step, 0)), h, sample_height(it, si + ivec2(step, 0)), m);
-	if ((ij.y & 1) != 0)
-		return morph_height(sample_height(it, si - ivec2(0, step)), h, sample_height(it, si + ivec2(0, step)), m);
-	return h;
+	int step = int(BLOCK_CELLS) / int(in_factors.x >> (8u * k) & 0xffu);
+	int i = (dir.x * (si - lo).x + dir.y * (si - lo).y) / step; // lo and hi are its ends: i >= 0
+	return (i & 1) != 0 ? morph_along(it, si, dir, step, h, (in_factors.z >> (8u * k)) & 0xffu) : h;
 }
 
 void main()

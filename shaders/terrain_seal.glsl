@@ -110,10 +110,8 @@ uint seal_side(uint j, float fc, int clayer, uint cmorph)
 	return j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | ((uint(clayer) & 0xffffu) << 8u) | (cmorph << 24u);
 }
 
-// Vertex i's height on a run of samples m0 + k dir drawn in segments of `step` samples with
-// morph byte `morph` (terrain_factors.glsl): its sample's, or for an odd vertex the blend
-// with the mean of its two neighbours. The evaluation shader and the seals both use this,
-// so a vertex two patches share gets the same bits in both.
+// The blend of a vertex's own height h with c, the mean of lo and hi, by morph byte `morph`
+// (terrain_factors.glsl).
 float morph_height(float lo, float h, float hi, uint morph)
 {
 	if (morph == MORPH_FULL)
@@ -123,13 +121,25 @@ float morph_height(float lo, float h, float hi, uint morph)
 	return r;
 }
 
+// The height of a vertex at sample m of patch `it` that a run along dir, drawn in segments
+// of `step` samples, has at an odd position (the next coarser level lacks it): its own
+// height h blended with the mean of its neighbours one segment either way. The evaluation
+// shader and the seals both use this, so a vertex two patches share gets the same bits in
+// both.
+float morph_along(Instance it, ivec2 m, ivec2 dir, int step, float h, uint morph)
+{
+	if (morph == MORPH_FULL)
+		return h;
+	return morph_height(sample_height(it, m - dir * step), h, sample_height(it, m + dir * step), morph);
+}
+
+// Vertex i's height on a run of samples m0 + k dir drawn in segments of `step` samples with
+// morph byte `morph`: its sample's, blended for an odd vertex (morph_along).
 float run_vertex_height(Instance c, ivec2 m0, ivec2 dir, int i, int step, uint morph)
 {
-	float h = sample_height(c, m0 + dir * (i * step));
-	if ((i & 1) != 0 && morph != MORPH_FULL)
-		h = morph_height(sample_height(c, m0 + dir * ((i - 1) * step)), h, sample_height(c, m0 + dir * ((i + 1) * step)),
-		                 morph);
-	return h;
+	ivec2 m = m0 + dir * (i * step);
+	float h = sample_height(c, m);
+	return (i & 1) != 0 ? morph_along(c, m, dir, step, h, morph) : h;
 }
 
 // Height of patch c's border `side` as c draws it (segments of `step` of its samples, morph
