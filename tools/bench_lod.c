@@ -15,6 +15,18 @@
  * more than REF_NOISE_PX off the surface (a near edge-on triangle at a silhouette, whose
  * depth the rasteriser interpolates badly), the pixel measures the rasteriser, not the LOD,
  * and is left out of every method's statistics; the count is reported.
+ * Rechecked maximum (max_err_3x_px, for the methods that bound their error by tau: relief
+ * and chunked): every pixel whose error comes out over tau is measured again on a render at
+ * three times the resolution with three times tau, which is the same angular threshold and
+ * so the same level of detail (checked: the same triangle count), and whose pixel
+ * (3x + 1, 3y + 1) is the same ray. Where the two disagree, what differed is how the
+ * rasteriser interpolated depth at that pixel centre (a far sliver triangle, whose plane
+ * the snapped vertices tilt), not the surface drawn; the ray's error at three times the
+ * resolution, in pixels of the frame, stands for the pixel. max_err_px stays the raw value;
+ * over_tau_pixels counts the pixel-frames rechecked, unresolved_pixels those that could not
+ * be (another level of detail, or no terrain on the ray), which keep their raw value;
+ * recheck_diff_px and recheck_rms_diff_px are the largest and the RMS change a recheck
+ * made. --recheck-all rechecks every pixel, a check of the recheck itself (tests/cli).
  * Popping: what the change of level of detail alone does between consecutive frames (each
  * key pose and the frame after it, 1/60 s later at 250 m/s): the second frame's camera
  * draws once with its own LOD and once with the first frame's LOD (frozen, see
@@ -74,7 +86,10 @@ struct result {
 	double popping_median, popping_max; /* over the pairs: the mean above is made by a few */
 	double shade_popping;               /* colour change of the LOD change alone, 8-bit steps */
 	double shade_err;                   /* colour difference from the full-resolution render */
+	double max_err_3x, recheck_diff;    /* rechecked maximum (top of the file), -1 if not rechecked */
+	double recheck_rms;                 /* RMS of the changes rechecks made */
 	uint64_t pixels, excluded; /* pixel-frames measured, and left out as reference noise */
+	uint64_t over_tau, unresolved; /* pixel-frames rechecked, and those a recheck could not resolve */
 };
 
 /* The full-resolution render's own error at a pixel is 0.01 px or less at 99.9 % of pixels;
@@ -87,6 +102,9 @@ struct run {
 	const float *finest;
 	uint32_t fw, fh, frames;
 	struct relief_view *views;
+	/* three times the frame's width and height, for rechecks; recheck_all: every pixel */
+	struct relief_vk_target fine;
+	bool recheck_all;
 	/* |error| in px per frame and pixel of the reference render (NaN: no terrain), or NULL
 	 * while the reference itself is measured */
 	float *ref_err;
@@ -119,6 +137,13 @@ static double parse_list(const char *s, double *out, int cap, int *n)
 struct error_stats {
 	double worst, sum2;
 	uint64_t *hist; /* 0.01 px bins up to 100 px, for the 99.9th percentile */
+	/* Rechecks: with bound > 0 (or 0 for every pixel), the frame's pixels over it go to
+	 * over[] (indices, errors in over_px[]) and the rest to worst_ok, which recheck() then
+	 * raises by the rechecked values. bound < 0: none. */
+	double bound, worst_ok, recheck_diff, recheck_sum2;
+	uint64_t recheck_n;
+	uint32_t *over, nover;
+	float *over_px;
 };
 enum { BINS = 10001 };
 
@@ -152,10 +177,56 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 			if (!a)
 				continue;
 			a->worst = fmax(a->worst, px);
+			if (a->bound >= 0 && (r->recheck_all || px > a->bound)) {
+				a->over_px[a->nover] = (float)px;
+				a->over[a->nover++] = (uint32_t)k;
+			} else
+				a->worst_ok = fmax(a->worst_ok, px);
 			a->hist[px >= 100.0 ? BINS - 1 : (size_t)(px * 100.0)]++;
 			a->sum2 += px * px;
 			res->pixels++;
 		}
+}
+
+/* The pixels of frame i that error_stats.over lists, measured again at three times the
+ * resolution (top of the file); `triangles`: the frame's own count. */
+static int recheck(struct run *r, const struct config *c, struct relief_terrain_view *tv, const struct relief_view *v,
+                   uint32_t i, uint64_t triangles, struct error_stats *a, struct result *res)
+{
+	const uint32_t W = r->gpu.target.width, W3 = r->fine.width;
+	struct relief_view v3 = *v;
+	v3.width = W3;
+	v3.height = r->fine.height;
+	v3.tau *= 3;
+	struct relief_draw_options o = c->opts;
+	o.select_tau *= 3;
+	o.target_px *= 3;
+	struct relief_terrain_stats st;
+	int ret = relief_terrain_draw(r->gpu.terrain, tv, &v3, &r->fine, 1001 + i, &o, &st);
+	if (ret < 0)
+		return ret;
+	const float *depth = r->fine.depth_readback.map;
+	for (uint32_t j = 0; j < a->nover; j++) {
+		uint32_t x = a->over[j] % W, y = a->over[j] / W;
+		size_t k3 = (size_t)(3 * y + 1) * W3 + 3 * x + 1;
+		double px = a->over_px[j], px3 = NAN;
+		if (st.triangles == triangles && depth[k3] > 0.0f) {
+			struct relief_vec3 p = relief_view_unproject(&v3, (int)(3 * x + 1), (int)(3 * y + 1), depth[k3]);
+			double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p, NULL);
+			px3 = relief_view_segment_px(&v3, p, fabs(dz)) / 3.0;
+		}
+		if (isfinite(px3)) {
+			a->recheck_diff = fmax(a->recheck_diff, fabs(px3 - px));
+			a->recheck_sum2 += (px3 - px) * (px3 - px);
+			a->recheck_n++;
+			px = px3;
+		} else
+			res->unresolved++;
+		a->worst_ok = fmax(a->worst_ok, px);
+	}
+	res->over_tau += a->nover;
+	a->nover = 0;
+	return 0;
 }
 
 /* RMS over pixels showing terrain in both of the change of the signed error; -1 if none. */
@@ -196,9 +267,16 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	float *frozen = malloc(sizeof(float) * W * H), *frozen_depth = malloc(sizeof(float) * W * H);
 	uint8_t *frozen_rgba = malloc((size_t)4 * W * H);
 	double *pops = malloc(sizeof(double) * (r->frames ? r->frames : 1)); /* per pair */
-	struct error_stats a = { .hist = calloc(BINS, sizeof(uint64_t)) };
+	/* Methods that bound their error by tau get their pixels over it rechecked. */
+	const bool bounded = !c->reference && c->opts.fine != RELIEF_FINE_DISTANCE;
+	struct error_stats a = {
+		.hist = calloc(BINS, sizeof(uint64_t)),
+		.bound = bounded ? c->param : -1,
+		.over = malloc(sizeof(uint32_t) * W * H),
+		.over_px = malloc(sizeof(float) * W * H),
+	};
 	struct relief_terrain_view *tv = NULL;
-	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && a.hist
+	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && a.hist && a.over && a.over_px
 	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
 	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
@@ -237,6 +315,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		if (!analyse)
 			continue;
 		frame_errors(r, c, v, i, err, &a, res);
+		if (a.nover && (ret = recheck(r, c, tv, v, i, st.triangles, &a, res)) < 0)
+			break;
 		uint8_t *ref_rgba = r->ref_rgba + (size_t)i * 4 * W * H;
 		float *ref_depth = r->ref_depth + (size_t)i * W * H;
 		if (c->reference) {
@@ -271,6 +351,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	}
 	if (ret == 0 && analyse) {
 		res->max_err = a.worst;
+		res->max_err_3x = bounded ? a.worst_ok : -1;
+		res->recheck_diff = bounded ? a.recheck_diff : -1;
+		res->recheck_rms = a.recheck_n ? sqrt(a.recheck_sum2 / a.recheck_n) : 0;
 		uint64_t seen = 0;
 		for (size_t b = 0; b < BINS; b++) {
 			seen += a.hist[b];
@@ -291,6 +374,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	}
 	relief_terrain_view_destroy(tv);
 	free(a.hist);
+	free(a.over);
+	free(a.over_px);
 	free(err);
 	free(prev);
 	free(frozen);
@@ -335,9 +420,10 @@ int bench_lod(int argc, char **argv)
 		{ "size", required_argument, NULL, 's' }, { "taus", required_argument, NULL, 'T' },
 		{ "targets", required_argument, NULL, 'P' }, { "device", required_argument, NULL, 'd' },
 		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
-		{ "morphed", no_argument, NULL, 'M' }, { "help", no_argument, NULL, 'h' }, { 0 },
+		{ "morphed", no_argument, NULL, 'M' }, { "recheck-all", no_argument, NULL, 'A' },
+		{ "help", no_argument, NULL, 'h' },   { 0 },
 	};
-	bool json = false, unculled = false, morphed = false;
+	bool json = false, unculled = false, morphed = false, recheck_all = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	int ntau = 5, ntarget = 5;
@@ -370,10 +456,11 @@ int bench_lod(int argc, char **argv)
 		case 'd': device = optarg; break;
 		case 'U': unculled = true; break;
 		case 'M': morphed = true; break;
+		case 'A': recheck_all = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
 			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--morphed]\n"
-			       "                        [--device DEV]\n"
+			       "                        [--recheck-all] [--device DEV]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -385,7 +472,11 @@ int bench_lod(int argc, char **argv)
 			       "without culling the blocks the camera cannot see (methods relief-unculled,\n"
 			       "chunked-unculled, taken in turn with the rest): what that culling saves.\n"
 			       "--morphed: relief also drawn with geomorphing (method relief-morphed, views with\n"
-			       "morph set): what morphing costs and what it does to popping.\n");
+			       "morph set): what morphing costs and what it does to popping.\n"
+			       "For relief and chunked, each pixel over tau is measured again at three times the\n"
+			       "resolution with three times tau (same LOD, same ray): max_3x is the maximum with those\n"
+			       "values, which tells the rasteriser's depth at a far sliver from a surface over tau;\n"
+			       "--recheck-all rechecks every pixel (a check of the recheck, slow).\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -401,7 +492,7 @@ int bench_lod(int argc, char **argv)
 		fprintf(stderr, "relief bench lod: %s: %s\n", path, err);
 		return 1;
 	}
-	struct run r = { .f = f, .frames = frames };
+	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all };
 	float *finest = NULL;
 	int status = 1, ret;
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
@@ -418,7 +509,8 @@ int bench_lod(int argc, char **argv)
 		goto out;
 	}
 	r.finest = finest;
-	if ((ret = tool_renderer_init(&r.gpu, &vo, f, &co, w, h)) < 0) {
+	if ((ret = tool_renderer_init(&r.gpu, &vo, f, &co, w, h)) < 0 ||
+	    (ret = relief_vk_target_init(r.gpu.vk, &r.fine, 3 * w, 3 * h)) < 0) {
 		fprintf(stderr, "relief bench lod: GPU setup failed: %s\n", strerror(-ret));
 		goto out;
 	}
@@ -434,38 +526,46 @@ int bench_lod(int argc, char **argv)
 
 	struct config cfg[1 + 8 * 6];
 	int n = 0;
-	cfg[n++] = (struct config){ "full-grid", 0, { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true };
+	cfg[n++] = (struct config){
+		.method = "full-grid", .opts = { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true
+	};
 	for (int i = 0; i < ntau; i++)
-		cfg[n++] = (struct config){ "relief", taus[i], { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, false, false };
+		cfg[n++] = (struct config){
+			.method = "relief", .param = taus[i], .opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }
+		};
 	for (int i = 0; i < ntarget; i++)
 		cfg[n++] = (struct config){
-			"distance", targets[i],
-			{ .fine = RELIEF_FINE_DISTANCE, .target_px = (float)targets[i], .select_tau = 1e-4 }, false, false
+			.method = "distance", .param = targets[i],
+			.opts = { .fine = RELIEF_FINE_DISTANCE, .target_px = (float)targets[i], .select_tau = 1e-4 }
 		};
 	for (int i = 0; i < ntau; i++)
-		cfg[n++] = (struct config){ "chunked", taus[i], { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }, false, false };
+		cfg[n++] = (struct config){
+			.method = "chunked", .param = taus[i], .opts = { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }
+		};
 	for (int i = 0; i < ntau && unculled; i++) {
 		cfg[n++] = (struct config){
-			"relief-unculled", taus[i],
-			{ .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i], .no_block_cull = true }, false, false
+			.method = "relief-unculled", .param = taus[i],
+			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i], .no_block_cull = true }
 		};
 		cfg[n++] = (struct config){
-			"chunked-unculled", taus[i],
-			{ .fine = RELIEF_FINE_FULL, .select_tau = taus[i], .no_block_cull = true }, false, false
+			.method = "chunked-unculled", .param = taus[i],
+			.opts = { .fine = RELIEF_FINE_FULL, .select_tau = taus[i], .no_block_cull = true }
 		};
 	}
 	for (int i = 0; i < ntau && morphed; i++)
-		cfg[n++] = (struct config){ "relief-morphed", taus[i], { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] },
-		                            false, true };
+		cfg[n++] = (struct config){
+			.method = "relief-morphed", .param = taus[i],
+			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, .morph = true
+		};
 	if (!json) {
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 		printf("relief bench lod: %s, flight of %u key poses (%u frames, popping between frames %.1f m apart) "
 		       "at %ux%u on %s (%s), cache warm, GPU time from timestamps, %u runs\n", base, frames, 2 * frames,
 		       FLIGHT_SPEED / FRAME_RATE, w, h, r.gpu.vk->props.deviceName,
 		       relief_vk_device_type_name(r.gpu.vk->props.deviceType), runs);
-		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %10s %10s %10s %9s\n", "method", "tau/px",
-		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "p99.9", "rms_err",
-		       "popping", "cam_pop", "excluded");
+		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %9s %10s %10s %10s %9s\n", "method", "tau/px",
+		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "max_3x", "p99.9",
+		       "rms_err", "popping", "cam_pop", "excluded");
 	}
 	/* Runs go round the configurations, so that a slow spell of the machine spreads over
 	 * all of them; errors are measured on the first run (they do not change). */
@@ -506,16 +606,27 @@ int bench_lod(int argc, char **argv)
 			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
 			       (unsigned long long)res[i].excluded, per_run, runs, w, h);
+			if (res[i].max_err_3x >= 0)
+				printf(",\"max_err_3x_px\":%.4f,\"over_tau_pixels\":%llu,\"unresolved_pixels\":%llu,"
+				       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",
+				       res[i].max_err_3x, (unsigned long long)res[i].over_tau,
+				       (unsigned long long)res[i].unresolved, res[i].recheck_diff, res[i].recheck_rms);
 			bench_json_machine(r.gpu.vk->props.deviceName);
-		} else
-			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9.2f %10.3f %10.5f %10.4f %9llu\n",
+		} else {
+			char m3[16] = "-";
+			if (res[i].max_err_3x >= 0)
+				snprintf(m3, sizeof(m3), "%.3f", res[i].max_err_3x);
+			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9s %9.2f %10.3f %10.5f %10.4f %9llu\n",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
-			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
-			       res[i].camera_popping, (unsigned long long)res[i].excluded);
+			       res[i].triangles, res[i].patches, res[i].max_err, m3, res[i].p999_err, res[i].rms_err,
+			       res[i].popping, res[i].camera_popping, (unsigned long long)res[i].excluded);
+		}
 	}
 	free(ms);
 	status = 0;
 out:
+	if (r.gpu.vk)
+		relief_vk_target_finish(r.gpu.vk, &r.fine);
 	tool_renderer_finish(&r.gpu);
 	free(finest);
 	free(r.views);
