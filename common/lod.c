@@ -1,3 +1,4 @@
+#include <assert.h>
 #include <errno.h>
 #include <math.h>
 #include <string.h>
@@ -279,4 +280,40 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 	if (mid)
 		*mid = p.z - 0.5 * (d0 + d1);
 	return fabs(e0) < fabs(e1) ? e0 : e1;
+}
+
+double relief_surface_height_bound(const struct relief_file *f, double x, double y)
+{
+	const struct relief_header *hd = &f->hdr;
+	const double global = hd->height_max + f->layout.delta[0];
+	const double gx = (x - hd->origin_x) / hd->spacing_x, gy = (hd->origin_y - y) / hd->spacing_y;
+	const double last = (double)f->layout.size - 1; /* finest samples 0 .. last */
+	if (!(gx >= 0 && gy >= 0 && gx <= last && gy <= last)) /* also NaN */
+		return global;
+	const uint32_t P = hd->patch_size, blocks = f->layout.blocks, L = hd->levels;
+	float range[2 * 16 * 16];
+	assert(relief_block_ranges_per_patch(P) <= sizeof(range) / sizeof(range[0]));
+	double bound = -INFINITY;
+	for (uint32_t l = 0; l < L; l++)
+		for (int probe = 0; probe < 4; probe++) {
+			/* level-l sample coordinates of the probe, clamped into the grid */
+			double px = gx + (probe & 1 ? 0.5 : -0.5), py = gy + (probe & 2 ? 0.5 : -0.5);
+			px = px < 0 ? 0 : px > last ? last : px;
+			py = py < 0 ? 0 : py > last ? last : py;
+			const uint32_t shift = L - 1 - l, cells = P - 1, n = 1u << l;
+			uint32_t sx = (uint32_t)px >> shift, sy = (uint32_t)py >> shift;
+			uint32_t ix = sx / cells < n ? sx / cells : n - 1, iy = sy / cells < n ? sy / cells : n - 1;
+			uint32_t bx = (sx - ix * cells) / RELIEF_BLOCK_CELLS, by = (sy - iy * cells) / RELIEF_BLOCK_CELLS;
+			bx = bx < blocks ? bx : blocks - 1;
+			by = by < blocks ? by : blocks - 1;
+			uint32_t id = relief_patch_id(l, ix, iy);
+			struct relief_patch_record r;
+			relief_file_record(f, id, &r);
+			if (r.flags & RELIEF_PATCH_EMPTY)
+				continue; /* never drawn */
+			relief_file_block_ranges(f, id, range);
+			double high = range[2 * (by * blocks + bx) + 1];
+			bound = high > bound ? high : bound;
+		}
+	return bound > -INFINITY ? bound : global;
 }

@@ -85,6 +85,19 @@ double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p,
 double relief_surface_vertical_error(const struct relief_file *f, const float *heights, uint32_t w, uint32_t h,
                                      uint32_t step, struct relief_vec3 p, double *mid);
 
+/* An upper bound (metres) on the height of the surface that any level of detail draws at
+ * world (x, y): the largest block height range (relief_file_block_ranges()) over every
+ * level's patch around the point, within half a finest cell of it, since the triangle
+ * covering a point is part of one block of one patch and its vertices are that block's
+ * samples, blends of them (morphing) or a coarser patch's samples along a shared border
+ * (seals), which lie in the coarser ancestor's block there. Outside the sample grid: the
+ * file's highest height plus the largest quantisation tolerance (delta_0), a bound on
+ * every reconstructed sample of every level (hole filling only averages valid ones), so
+ * that a ray from there meets the edge curtains' outer faces or the upper side first. A
+ * camera above the bound sees the upper side of the surface first along every ray, so
+ * back faces can be culled (relief_terrain_draw()). */
+double relief_surface_height_bound(const struct relief_file *f, double x, double y);
+
 /* A patch's screen error is Err(P) * kappa / (distance from the camera to its box), infinite
  * inside the box. The coarse selection takes patches whose screen error is within this
  * share of tau (tau_c); the

@@ -149,7 +149,10 @@ vec2 quad_corner(uint k, uint v, out float down)
 		return (vec2(float(k % b), float(k / b)) + c) * float(BLOCK_CELLS);
 	}
 	uint j = k - b * b, side = j / b, i = j % b;
-	float along = (float(i) + c.x) * float(BLOCK_CELLS), last = float(pc.P - 1u);
+	// North and east curtains run the other way, so that every curtain's outer face is
+	// counter-clockwise like the blocks' upper side (back faces may be culled).
+	float u = side == 0u || side == 3u ? 1.0 - c.x : c.x;
+	float along = (float(i) + u) * float(BLOCK_CELLS), last = float(pc.P - 1u);
 	down = c.y;
 	return side == 0u ? vec2(along, 0.0) : side == 1u ? vec2(along, last) : side == 2u ? vec2(0.0, along)
 	                                                                     : vec2(last, along);

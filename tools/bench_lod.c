@@ -49,6 +49,8 @@
  * included, where popping_px is the surface alone. shade_err compares each frame's picture
  * with the full-resolution render's the same way (RMS over all frames): what the level of
  * detail costs in what a viewer sees, lighting included (docs/lod.md, shading).
+ * face_culled_frames: frames of the first run drawn with back faces culled (the camera above
+ * every surface that can be drawn beneath it, relief_surface_height_bound()).
  * GPU time: timestamps around LOD compute, drawing and copy-out, per frame; median and p95
  * over all frames of all runs, the runs taken in turn over the configurations. All LOD
  * compute (selection, draw records, tessellation factors) is lod_ms (JSON lod_ms_median),
@@ -90,6 +92,7 @@ struct result {
 	double recheck_rms;                 /* RMS of the changes rechecks made */
 	uint64_t pixels, excluded; /* pixel-frames measured, and left out as reference noise */
 	uint64_t over_tau, unresolved; /* pixel-frames rechecked, and those a recheck could not resolve */
+	uint32_t face_culled;          /* timed frames of the first run drawn with back faces culled */
 };
 
 /* The full-resolution render's own error at a pixel is 0.01 px or less at 99.9 % of pixels;
@@ -312,6 +315,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		lod[i] = st.lod_ns / 1e6;
 		tri += (double)st.triangles;
 		patches += st.patches;
+		if (analyse)
+			res->face_culled += st.face_culled;
 		if (!analyse)
 			continue;
 		frame_errors(r, c, v, i, err, &a, res);
@@ -600,12 +605,12 @@ int bench_lod(int argc, char **argv)
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
 			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
-			       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u",
+			       "\"frames\":%zu,\"face_culled_frames\":%u,\"runs\":%u,\"width\":%u,\"height\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
 			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
-			       (unsigned long long)res[i].excluded, per_run, runs, w, h);
+			       (unsigned long long)res[i].excluded, per_run, res[i].face_culled, runs, w, h);
 			if (res[i].max_err_3x >= 0)
 				printf(",\"max_err_3x_px\":%.4f,\"over_tau_pixels\":%llu,\"unresolved_pixels\":%llu,"
 				       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",

@@ -17,10 +17,13 @@ struct relief_vk_tess_pipeline_desc {
 	VkRenderPass pass;
 	bool wireframe; /* needs vk->has.fill_mode_non_solid */
 	bool reversed_z; /* depth test GREATER (nearer is larger) instead of LESS */
+	/* Cull back faces: clockwise triangles in the framebuffer (y down), the underside of a
+	 * terrain whose evaluation shader emits the quad domain counter-clockwise. */
+	bool cull_back;
 };
 
 /* The pipeline has dynamic viewport and scissor, depth test LESS with writes, back faces
- * kept (terrain may be seen from below when the camera is inside it). */
+ * kept unless cull_back (terrain is seen from below when the camera is inside it). */
 int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_tess_pipeline_desc *d,
                                    VkPipeline *out);
 /* A compute pipeline from SPIR-V (entry point main). */

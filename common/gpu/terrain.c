@@ -27,6 +27,9 @@ struct want {
 };
 /* Tessellated vertices of one quad patch at most: factor 16 everywhere, (16 + 1)^2. */
 #define MAX_VERTICES_PER_QUAD 289u
+/* Metres a camera must be above relief_surface_height_bound() for back faces to be culled:
+ * drawn heights are floats of at most ~10 km, rounded to ~1 mm. */
+#define FACE_CULL_MARGIN 0.01
 
 /* std430 twins of the shaders' push blocks and structs (shaders/terrain_*.glsl). */
 struct select_push {
@@ -106,7 +109,8 @@ struct relief_terrain {
 	struct relief_vk_buffer info;
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
-	VkPipeline select, commands, borders, factors, draw_fill, draw_wire;
+	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
+	VkPipeline select, commands, borders, factors, draw_fill, draw_cull, draw_wire;
 	VkQueryPool stats_pool;
 	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
@@ -226,6 +230,10 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	};
 	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_fill)) < 0)
 		goto fail;
+	d.cull_back = true;
+	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_cull)) < 0)
+		goto fail;
+	d.cull_back = false;
 	if (vk->has.fill_mode_non_solid) {
 		d.wireframe = true;
 		if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_wire)) < 0)
@@ -249,8 +257,8 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[6] = { t->select, t->commands, t->borders, t->factors, t->draw_fill, t->draw_wire };
-	for (int i = 0; i < 6; i++)
+	VkPipeline pipes[7] = { t->select, t->commands, t->borders, t->factors, t->draw_fill, t->draw_cull, t->draw_wire };
+	for (int i = 0; i < 7; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
 	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };
@@ -509,6 +517,12 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->timer.pool)
 		relief_vk_timer_write(&t->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
+	/* Back faces are hidden wherever the drawing camera is above every surface the level of
+	 * detail can draw beneath it (relief_surface_height_bound(), with a margin for the
+	 * rounding of drawn heights): along each ray the first surface met is then an upper
+	 * side. Inside the terrain the underside stays drawn. */
+	const bool face_cull = !opts->no_face_cull && view->eye.z > relief_surface_height_bound(f, view->eye.x, view->eye.y) +
+	                                                                FACE_CULL_MARGIN;
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
@@ -516,7 +530,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
 		dp.mode = mode | (uint32_t)pass;
-		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pass ? t->draw_wire : t->draw_fill);
+		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+		                  pass ? t->draw_wire : face_cull ? t->draw_cull : t->draw_fill);
 		vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(dp), &dp);
 		if (vk->has.draw_indirect_count)
 			vkCmdDrawIndirectCount(cmd, v->cmds.buffer, 0, v->counters.buffer, offsetof(struct counters, draws),
@@ -536,7 +551,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	v->parity ^= 1;
 
 	const struct counters *c = v->counters.map;
-	struct relief_terrain_stats s = { .patches = c->drawn, .draws = c->draws, .requests = c->wants };
+	struct relief_terrain_stats s = {
+		.patches = c->drawn, .draws = c->draws, .requests = c->wants, .face_culled = face_cull
+	};
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */
 	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;

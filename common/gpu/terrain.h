@@ -28,6 +28,7 @@ struct relief_terrain_stats {
 	uint64_t gpu_ns;        /* whole frame (LOD compute, draw, copy-out) */
 	uint64_t select_ns;     /* coarse LOD compute: patch selection and draw records */
 	uint64_t lod_ns;        /* all LOD compute: select_ns plus the tessellation-factor pass */
+	bool face_culled;       /* back faces were culled: the camera is above the surface */
 };
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
@@ -51,6 +52,7 @@ struct relief_draw_options {
 	double select_tau;            /* > 0: tau for the coarse selection instead of view->tau */
 	bool no_skirts;               /* tests: draw no skirt, so that any crack stays open */
 	bool no_block_cull;           /* tests, bench lod --unculled: tessellate blocks the camera cannot see too */
+	bool no_face_cull;            /* tests: draw back faces even when the camera is above the surface */
 	/* Non-NULL: choose the level of detail (selection, tessellation) for this view and draw
 	 * it from `view` (same viewport size): a frozen LOD, for measuring what LOD changes
 	 * alone do to the picture (`relief bench lod` popping) and for inspecting a view's LOD

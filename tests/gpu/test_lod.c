@@ -538,6 +538,154 @@ static void test_block_cull_keeps_picture(void **state)
 	bound_close(&b);
 }
 
+/* relief_surface_height_bound() holds for whatever a level of detail draws: every sample of
+ * every level at the corners of the cell around a point, at every block level's spacing
+ * (the vertices of any triangle that can cover it), lies at or below the bound there; at
+ * random points and at points on block and patch borders, where the covering triangle may
+ * belong to either side. And the bound is local: over most points it is below the file's
+ * global bound (highest sample plus delta_0). */
+static void test_surface_height_bound(void **state)
+{
+	(void)state;
+	for (enum test_dem d = DEM_PUGET; d <= DEM_ALPS; d++) {
+		struct relief_dem dem;
+		test_dem_load(d, &dem);
+		struct relief_pack_options po = { .patch = 129, .ratio = 2, .tolerance = 1.0 };
+		uint8_t *img;
+		size_t size;
+		assert_int_equal(relief_pack_memory(&dem, &po, &img, &size, NULL), 0);
+		relief_dem_finish(&dem);
+		struct relief_file *f;
+		char err[256];
+		assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+		const struct relief_header *hd = &f->hdr;
+		const uint32_t L = hd->levels, N = 4000;
+		const double global = hd->height_max + f->layout.delta[0];
+		uint32_t fw, fh, local = 0, checked = 0;
+		relief_level_extent(hd, L - 1, &fw, &fh);
+		double *gx = malloc(sizeof(double) * N), *gy = malloc(sizeof(double) * N), *bound = malloc(sizeof(double) * N);
+		uint64_t seed = 12345;
+		for (uint32_t i = 0; i < N; i++) { /* finest-grid coordinates; every fourth on a border */
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			gx[i] = (double)(seed >> 11) / 9007199254740992.0 * (fw - 1);
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			gy[i] = (double)(seed >> 11) / 9007199254740992.0 * (fh - 1);
+			if (i % 4 == 1) /* on a vertical block border of some level */
+				gx[i] = floor(gx[i] / RELIEF_BLOCK_CELLS) * RELIEF_BLOCK_CELLS;
+			if (i % 4 == 3) /* on a patch corner */
+				gx[i] = floor(gx[i] / (hd->patch_size - 1)) * (hd->patch_size - 1),
+				gy[i] = floor(gy[i] / (hd->patch_size - 1)) * (hd->patch_size - 1);
+			bound[i] = relief_surface_height_bound(f, hd->origin_x + gx[i] * hd->spacing_x,
+			                                       hd->origin_y - gy[i] * hd->spacing_y);
+			local += bound[i] < global;
+		}
+		for (uint32_t l = 0; l < L; l++) {
+			uint32_t w, h;
+			relief_level_extent(hd, l, &w, &h);
+			float *q = malloc(sizeof(float) * w * h);
+			assert_int_equal(relief_decode_level(f, l, 0, q, NULL), 0);
+			const double scale = (double)(1u << (L - 1 - l)); /* finest samples per level-l sample */
+			for (uint32_t i = 0; i < N; i++)
+				for (uint32_t s = 1; s <= 16; s *= 2) { /* block levels: every s-th sample */
+					double cx = gx[i] / scale, cy = gy[i] / scale;
+					uint32_t x0 = (uint32_t)(floor(cx / s) * s), y0 = (uint32_t)(floor(cy / s) * s);
+					for (uint32_t k = 0; k < 4; k++) {
+						uint32_t x = x0 + (k & 1) * s, y = y0 + (k >> 1) * s;
+						/* at a border both sides' cells: the one before it too */
+						if (x == cx && k & 1)
+							x = x0 >= s ? x0 - s : x0;
+						if (y == cy && k >> 1)
+							y = y0 >= s ? y0 - s : y0;
+						if (x >= w || y >= h)
+							continue;
+						float z = q[(size_t)y * w + x];
+						if (!(z <= bound[i] + 1e-3))
+							fail_msg("%s level %u spacing %u: sample (%u, %u) at %.3f m, above the bound %.3f m at (%.2f, %.2f)",
+							         test_dem_name(d), l, s, x, y, z, bound[i], gx[i], gy[i]);
+						checked++;
+					}
+				}
+			free(q);
+		}
+		print_message("%s: %u samples at or below the bound; bound local at %u of %u points\n", test_dem_name(d),
+		              checked, local, N);
+		assert_true(local > N / 2);
+		/* Outside the grid: the global bound. */
+		assert_true(relief_surface_height_bound(f, hd->origin_x - 10 * hd->spacing_x, hd->origin_y) == global);
+		assert_true(relief_surface_height_bound(f, NAN, hd->origin_y) == global);
+		free(gx);
+		free(gy);
+		free(bound);
+		relief_file_close(f);
+		free(img);
+	}
+}
+
+/* Back faces are culled only where the camera is above every surface a level of detail can
+ * draw beneath it, and there the picture is the one drawn with them: views over the land
+ * and the water, grazing, straight down, high outside each terrain edge looking at its
+ * curtain's outer face, a level of detail chosen elsewhere; relief at tau 1 and chunked.
+ * The terrain covers the same pixels; the few depths that differ are pixels whose centre a
+ * back face reached first through the rasteriser's rounding. Inside the mountain nothing is
+ * culled and the picture is the same bits. */
+static void test_face_cull_keeps_picture(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, DEM_PUGET);
+	/* Puget Sound: x, y in [0, 163840] m, Mt Rainier (4380 m) at (128480, 79200). */
+	const struct { struct pose pose; double roll_deg; bool frozen, culled; } cases[] = {
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 0, false, true },
+		{ { { 5000, 5000, 400 }, { 160000, 150000, 100 } }, 0, false, false },      /* grazing, below a hill's top */
+		{ { { 60000, 90000, 300 }, { 128480, 79200, 3000 } }, 0, false, true },    /* low, at Rainier */
+		{ { { 128480, 79200, 9000 }, { 128480, 79200, 0 } }, 150, false, true },    /* straight down */
+		{ { { -20000, 80000, 9000 }, { 10000, 80000, 0 } }, 0, false, true },       /* west curtain */
+		{ { { 183840, 80000, 9000 }, { 150000, 80000, 0 } }, 0, false, true },      /* east */
+		{ { { 80000, 183840, 9000 }, { 80000, 150000, 0 } }, 0, false, true },      /* north */
+		{ { { 80000, -20000, 9000 }, { 80000, 10000, 0 } }, 0, false, true },       /* south */
+		{ { { 60000, 40000, 1500 }, { 70000, 60000, 800 } }, -20, true, true },     /* LOD from elsewhere */
+		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, false, false },  /* inside the mountain */
+	};
+	const enum relief_fine_lod methods[] = { RELIEF_FINE_ERRORS, RELIEF_FINE_FULL };
+	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
+		for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
+			struct relief_view v = pose_view(&cases[c].pose), lod = v;
+			v.roll = cases[c].roll_deg * M_PI / 180;
+			v.tau = lod.tau = 1.0;
+			if (cases[c].frozen) {
+				lod.eye.x += 400;
+				lod.eye.z -= 300;
+				lod.target.x += 3000;
+			}
+			struct relief_draw_options o = { .fine = methods[m], .lod_view = cases[c].frozen ? &lod : NULL };
+			struct relief_terrain_stats culled, kept;
+			render_with(&b.s, &v, &o, b.lod, &culled);
+			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			o.no_face_cull = true;
+			render_with(&b.s, &v, &o, b.ref, &kept);
+			uint32_t terrain = 0, coverage = 0, depths = 0, colours = 0;
+			const uint8_t *ref_colour = b.s.target.color_readback.map;
+			for (size_t k = 0; k < (size_t)BW * BH; k++) {
+				terrain += b.ref[k] > 0.0f;
+				coverage += (b.ref[k] > 0.0f) != (b.lod[k] > 0.0f);
+				depths += b.ref[k] != b.lod[k];
+				colours += memcmp(colour + 4 * k, ref_colour + 4 * k, 4) != 0;
+			}
+			print_message("view %zu, %s: %s, %u terrain pixels, %u change coverage, %u depth, %u colour\n", c,
+			              methods[m] == RELIEF_FINE_ERRORS ? "relief" : "chunked",
+			              culled.face_culled ? "culled" : "not culled", terrain, coverage, depths, colours);
+			assert_true(terrain > BW);
+			assert_int_equal(culled.face_culled, cases[c].culled);
+			assert_false(kept.face_culled);
+			assert_int_equal(coverage, 0);
+			assert_true(depths <= terrain / 1000 && colours <= terrain / 1000);
+			if (!cases[c].culled)
+				assert_int_equal(depths + colours, 0);
+		}
+	free(colour);
+	bound_close(&b);
+}
+
 /* Roll turns the picture about its centre: a camera rolled by 180 degrees shows the same
  * frame upside down (pixel (x, y) at (W-1-x, H-1-y)); the rotation maps pixel centres onto
  * pixel centres and keeps the frustum, so the same patches are drawn and depths agree
@@ -1419,6 +1567,8 @@ int main(void)
 		cmocka_unit_test(test_ridge_above_measuring_points),
 		cmocka_unit_test(test_hard_views),
 		cmocka_unit_test(test_block_cull_keeps_picture),
+		cmocka_unit_test(test_surface_height_bound),
+		cmocka_unit_test(test_face_cull_keeps_picture),
 		cmocka_unit_test(test_huge_coordinates),
 		cmocka_unit_test(test_old_version_renders),
 		cmocka_unit_test(test_nodata_hidden),
