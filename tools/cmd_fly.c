@@ -246,6 +246,7 @@ int cmd_fly(int argc, char **argv)
 			goto out;
 		}
 	double start = 0, png_total = 0; /* wall clock of the first frame; time spent writing PNGs */
+	uint32_t culled_draws = 0;      /* draws with back faces culled (relief_terrain_stats.face_culled) */
 	for (uint32_t i = 0; i < frames; i++) {
 		uint64_t frame = i + 1;
 		track_at(&track, t0 + i / fps, &k);
@@ -270,6 +271,7 @@ int cmd_fly(int argc, char **argv)
 			}
 			gpu += st.gpu_ns / 1e6;
 			tri += (double)st.triangles;
+			culled_draws += st.face_culled;
 			if (i + 1 == frames && (ret = count_levels(f, tv[ch], s.last_levels)) < 0) {
 				fprintf(stderr, "relief fly: %s\n", strerror(-ret));
 				goto out;
@@ -317,11 +319,11 @@ int cmd_fly(int argc, char **argv)
 		       "\"frames_incomplete\":%u,\"first_complete_frame\":%ld,\"first_complete_ms\":%.1f,"
 		       "\"last_incomplete_frame\":%ld,"
 		       "\"decoded\":%llu,\"evicted\":%llu,\"bad\":%llu,\"layers_used\":%u,\"layers\":%u,\"budget_mib\":%u,"
-		       "\"workers\":%u,\"morph\":%s",
+		       "\"workers\":%u,\"morph\":%s,\"face_culled_draws\":%u",
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
 		       gpu_med, gpu_p95, tri_med, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
 		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers,
-		       morph ? "true" : "false");
+		       morph ? "true" : "false", culled_draws);
 		printf(",\"patches_by_level_last_frame\":[");
 		for (uint32_t l = 0; l < f->hdr.levels; l++)
 			printf("%s%u", l ? "," : "", s.last_levels[l]);
@@ -334,7 +336,8 @@ int cmd_fly(int argc, char **argv)
 		printf("  frame wall ms      median %.2f  p95 %.2f  max %.2f (drawing %u channel(s) and waiting for them)\n",
 		       wall_med, wall_p95, wall_max, channels);
 		printf("  cache update ms    median %.3f  max %.3f (never waits for a decode)\n", upd_med, upd_max);
-		printf("  GPU ms per frame   median %.2f  p95 %.2f; triangles median %.0f\n", gpu_med, gpu_p95, tri_med);
+		printf("  GPU ms per frame   median %.2f  p95 %.2f; triangles median %.0f; back faces culled in %u of %u "
+		       "draws (camera above the surface)\n", gpu_med, gpu_p95, tri_med, culled_draws, frames * channels);
 		printf("  detail             %u of %u frames drew a parent for a missing patch; first complete frame %ld "
 		       "(%.0f ms of wall time from the start), last incomplete %ld\n", s.incomplete, frames, first,
 		       s.first_complete_ms, last);
