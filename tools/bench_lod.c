@@ -605,12 +605,12 @@ int bench_lod(int argc, char **argv)
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
 			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
-			       "\"frames\":%zu,\"face_culled_frames\":%u,\"runs\":%u,\"width\":%u,\"height\":%u",
+			       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u,\"face_culled_frames\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
 			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
-			       (unsigned long long)res[i].excluded, per_run, res[i].face_culled, runs, w, h);
+			       (unsigned long long)res[i].excluded, per_run, runs, w, h, res[i].face_culled);
 			if (res[i].max_err_3x >= 0)
 				printf(",\"max_err_3x_px\":%.4f,\"over_tau_pixels\":%llu,\"unresolved_pixels\":%llu,"
 				       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",

@@ -180,6 +180,7 @@ expect_text bench-lod-error-fields '"max_err_px":'
 expect_text bench-lod-popping '"popping_px":'
 expect_text bench-lod-camera-popping '"camera_popping_px":'
 expect_text bench-lod-runs '"frames":4,"runs":2,'
+expect_text bench-lod-face-cull '"face_culled_frames":4' # the flight is above the terrain
 expect_text bench-lod-cpu '","cpu":"'
 # --unculled: relief and chunked also drawn without block culling, in turn with the rest;
 # culling draws no more triangles and changes no error (the picture is the same).
