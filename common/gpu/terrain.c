@@ -521,8 +521,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	 * detail can draw beneath it (relief_surface_height_bound(), with a margin for the
 	 * rounding of drawn heights): along each ray the first surface met is then an upper
 	 * side. Inside the terrain the underside stays drawn. */
-	const bool face_cull = !opts->no_face_cull && view->eye.z > relief_surface_height_bound(f, view->eye.x, view->eye.y) +
-	                                                                FACE_CULL_MARGIN;
+	const double ground = relief_surface_height_bound(f, view->eye.x, view->eye.y);
+	const bool face_cull = !opts->no_face_cull && view->eye.z > ground + FACE_CULL_MARGIN;
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
