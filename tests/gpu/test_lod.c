@@ -589,21 +589,19 @@ static void test_surface_height_bound(void **state)
 				for (uint32_t s = 1; s <= 16; s *= 2) { /* block levels: every s-th sample */
 					double cx = gx[i] / scale, cy = gy[i] / scale;
 					uint32_t x0 = (uint32_t)(floor(cx / s) * s), y0 = (uint32_t)(floor(cy / s) * s);
-					for (uint32_t k = 0; k < 4; k++) {
-						uint32_t x = x0 + (k & 1) * s, y = y0 + (k >> 1) * s;
-						/* at a border both sides' cells: the one before it too */
-						if (x == cx && k & 1)
-							x = x0 >= s ? x0 - s : x0;
-						if (y == cy && k >> 1)
-							y = y0 >= s ? y0 - s : y0;
-						if (x >= w || y >= h)
-							continue;
-						float z = q[(size_t)y * w + x];
-						if (!(z <= bound[i] + 1e-3))
-							fail_msg("%s level %u spacing %u: sample (%u, %u) at %.3f m, above the bound %.3f m at (%.2f, %.2f)",
-							         test_dem_name(d), l, s, x, y, z, bound[i], gx[i], gy[i]);
-						checked++;
-					}
+					/* the cell's corners; on a cell border also the cell before it */
+					for (int dy = y0 == cy ? -1 : 0; dy <= 1; dy++)
+						for (int dx = x0 == cx ? -1 : 0; dx <= 1; dx++) {
+							int64_t x = (int64_t)x0 + dx * (int64_t)s, y = (int64_t)y0 + dy * (int64_t)s;
+							if (x < 0 || y < 0 || x >= w || y >= h)
+								continue;
+							float z = q[(size_t)y * w + (size_t)x];
+							if (!(z <= bound[i] + 1e-3))
+								fail_msg("%s level %u spacing %u: sample (%lld, %lld) at %.3f m, above the bound "
+								         "%.3f m at (%.2f, %.2f)", test_dem_name(d), l, s, (long long)x,
+								         (long long)y, z, bound[i], gx[i], gy[i]);
+							checked++;
+						}
 				}
 			free(q);
 		}
