@@ -140,9 +140,9 @@ static double parse_list(const char *s, double *out, int cap, int *n)
 struct error_stats {
 	double worst, sum2;
 	uint64_t *hist; /* 0.01 px bins up to 100 px, for the 99.9th percentile */
-	/* Rechecks: with bound > 0 (or 0 for every pixel), the frame's pixels over it go to
-	 * over[] (indices, errors in over_px[]) and the rest to worst_ok, which recheck() then
-	 * raises by the rechecked values. bound < 0: none. */
+	/* Rechecks: with bound >= 0 (tau), the frame's pixels over it (every pixel with
+	 * --recheck-all) go to over[] (indices, errors in over_px[]) and the rest to worst_ok,
+	 * which recheck() then raises by the rechecked values. bound < 0: no rechecks. */
 	double bound, worst_ok, recheck_diff, recheck_sum2;
 	uint64_t recheck_n;
 	uint32_t *over, nover;
@@ -192,7 +192,11 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 }
 
 /* The pixels of frame i that error_stats.over lists, measured again at three times the
- * resolution (top of the file); `triangles`: the frame's own count. */
+ * resolution (top of the file); `triangles`: the frame's own count (0 where the device has
+ * no pipeline statistics: then nothing can be checked and every pixel stays unresolved).
+ * The view's hysteresis state is that frame's, and selecting again at the same angular
+ * threshold keeps it (idempotent, docs/lod.md "Frozen level of detail"), so the frames
+ * that follow are the ones drawn without the recheck. */
 static int recheck(struct run *r, const struct config *c, struct relief_terrain_view *tv, const struct relief_view *v,
                    uint32_t i, uint64_t triangles, struct error_stats *a, struct result *res)
 {
@@ -213,7 +217,7 @@ static int recheck(struct run *r, const struct config *c, struct relief_terrain_
 		uint32_t x = a->over[j] % W, y = a->over[j] / W;
 		size_t k3 = (size_t)(3 * y + 1) * W3 + 3 * x + 1;
 		double px = a->over_px[j], px3 = NAN;
-		if (st.triangles == triangles && depth[k3] > 0.0f) {
+		if (triangles > 0 && st.triangles == triangles && depth[k3] > 0.0f) {
 			struct relief_vec3 p = relief_view_unproject(&v3, (int)(3 * x + 1), (int)(3 * y + 1), depth[k3]);
 			double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p, NULL);
 			px3 = relief_view_segment_px(&v3, p, fabs(dz)) / 3.0;
@@ -315,10 +319,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		lod[i] = st.lod_ns / 1e6;
 		tri += (double)st.triangles;
 		patches += st.patches;
-		if (analyse)
-			res->face_culled += st.face_culled;
 		if (!analyse)
 			continue;
+		res->face_culled += st.face_culled;
 		frame_errors(r, c, v, i, err, &a, res);
 		if (a.nover && (ret = recheck(r, c, tv, v, i, st.triangles, &a, res)) < 0)
 			break;
