@@ -317,3 +317,35 @@ double relief_surface_height_bound(const struct relief_file *f, double x, double
 		}
 	return bound > -INFINITY ? bound : global;
 }
+
+double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *ids, uint32_t n, double x, double y)
+{
+	const struct relief_header *hd = &f->hdr;
+	const uint32_t blocks = f->layout.blocks;
+	/* metres east of the grid's origin and south of it (rows) */
+	const double ex = x - hd->origin_x, ey = hd->origin_y - y;
+	float range[2 * 16 * 16];
+	double bound = -INFINITY;
+	bool found = false;
+	for (uint32_t i = 0; i < n; i++) {
+		uint32_t l, px, py;
+		if (!relief_patch_coords(&f->layout, ids[i], &l, &px, &py))
+			continue;
+		const double cells = (double)((hd->patch_size - 1) << (hd->levels - 1 - l)) / blocks; /* finest, per block */
+		const double sx = cells * hd->spacing_x, sy = cells * hd->spacing_y, side = sx > sy ? sx : sy;
+		bool read = false;
+		for (uint32_t by = 0; by < blocks; by++)
+			for (uint32_t bx = 0; bx < blocks; bx++) {
+				double x0 = ((double)px * blocks + bx) * sx, y0 = ((double)py * blocks + by) * sy;
+				double dx = fmax(fmax(x0 - ex, ex - (x0 + sx)), 0.0), dy = fmax(fmax(y0 - ey, ey - (y0 + sy)), 0.0);
+				if (fmax(dx, dy) > side)
+					continue;
+				if (!read)
+					relief_file_block_ranges(f, ids[i], range);
+				read = true;
+				bound = fmax(bound, range[2 * (by * blocks + bx) + 1]);
+				found |= dx <= 0.5 * hd->spacing_x && dy <= 0.5 * hd->spacing_y;
+			}
+	}
+	return found ? bound : NAN;
+}

@@ -98,6 +98,14 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
  * back faces can be culled (relief_terrain_draw()). */
 double relief_surface_height_bound(const struct relief_file *f, double x, double y);
 
+/* The same bound from what a frame draws (the CPU twin of lod_commands.comp, for tests):
+ * the largest block height range over the drawn patches `ids` (n of them) whose blocks lie
+ * within their own side of world (x, y) (the larger of the block's two sides, measured as
+ * the larger of the x and y distances to the block), which takes in the drawn block holding
+ * the point and every coarser block across its borders whose samples can seal it; NaN if no
+ * drawn block holds the point within half a finest cell. */
+double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *ids, uint32_t n, double x, double y);
+
 /* A patch's screen error is Err(P) * kappa / (distance from the camera to its box), infinite
  * inside the box. The coarse selection takes patches whose screen error is within this
  * share of tau (tau_c); the

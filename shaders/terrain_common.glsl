@@ -50,3 +50,15 @@ struct PatchInfo {
 };
 
 const uint BLOCK_CELLS = 16u;
+
+// A layer's block data (binding 11): blocks^2 x 4 errors, then blocks^2 x 2 height ranges
+// (patch_cache.h). Index of block bl's first error and of its range's low end.
+uint block_eps_index(int layer, ivec2 bl, uint blocks)
+{
+	return uint(layer) * blocks * blocks * 6u + (uint(bl.y) * blocks + uint(bl.x)) * 4u;
+}
+
+uint block_range_index(int layer, ivec2 bl, uint blocks)
+{
+	return uint(layer) * blocks * blocks * 6u + blocks * blocks * 4u + (uint(bl.y) * blocks + uint(bl.x)) * 2u;
+}

@@ -23,12 +23,9 @@
 // A block's errors eps_1..eps_4, made non-decreasing: a coarser level's measured error can
 // be below a finer one's (the triangulations do not nest), and max(eps_1..eps_d) still bounds
 // level d. With it, a level that passes the test implies every finer level passes.
-// A layer's block data: blocks^2 x 4 errors, then blocks^2 x 2 height ranges (patch_cache.h).
-uint block_data_base(int layer) { return uint(layer) * pc.blocks * pc.blocks * 6u; }
-
 vec4 block_eps_at(int layer, ivec2 bl)
 {
-	uint base = block_data_base(layer) + (uint(bl.y) * pc.blocks + uint(bl.x)) * 4u;
+	uint base = block_eps_index(layer, bl, pc.blocks);
 	vec4 e = vec4(block_err[base], block_err[base + 1u], block_err[base + 2u], block_err[base + 3u]);
 	e.y = max(e.x, e.y);
 	e.z = max(e.y, e.z);
@@ -42,7 +39,7 @@ vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec
 // block drawn at any level does.
 vec2 block_range_at(int layer, ivec2 bl)
 {
-	uint base = block_data_base(layer) + pc.blocks * pc.blocks * 4u + (uint(bl.y) * pc.blocks + uint(bl.x)) * 2u;
+	uint base = block_range_index(layer, bl, pc.blocks);
 	return vec2(block_err[base], block_err[base + 1u]);
 }
 

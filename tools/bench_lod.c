@@ -50,7 +50,7 @@
  * with the full-resolution render's the same way (RMS over all frames): what the level of
  * detail costs in what a viewer sees, lighting included (docs/lod.md, shading).
  * face_culled_frames: frames of the first run drawn with back faces culled (the camera above
- * every surface that can be drawn beneath it, relief_surface_height_bound()).
+ * the surface drawn under it, docs/lod.md "Back faces").
  * GPU time: timestamps around LOD compute, drawing and copy-out, per frame; median and p95
  * over all frames of all runs, the runs taken in turn over the configurations. All LOD
  * compute (selection, draw records, tessellation factors) is lod_ms (JSON lod_ms_median),

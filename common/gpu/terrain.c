@@ -45,6 +45,8 @@ _Static_assert(sizeof(struct select_push) == 128, "select push block");
 
 struct commands_push {
 	uint32_t per_patch, blocks, per_draw, max_draws;
+	uint32_t cpu_cull; /* relief_surface_height_bound()'s decision, for when no drawn block holds the eye */
+	float margin;      /* FACE_CULL_MARGIN */
 };
 
 struct draw_push {
@@ -79,6 +81,18 @@ struct counters {
 	uint32_t drawn, draws, wants, curtains;
 	uint32_t factor_groups[4]; /* VkDispatchIndirectCommand for lod_factors.comp, then padding */
 	uint32_t border_groups[4]; /* the same for lod_borders.comp */
+	/* lod_commands.comp: back faces culled; a drawn block holds the eye; the highest
+	 * block around it (metres) */
+	uint32_t face_culled, found;
+	float near_high;
+	uint32_t pad;
+	uint32_t draw_split[4];       /* the draw count for the culling pipeline, for the other */
+};
+/* The per-view camera buffer (binding 15): the drawing view-projection, then the drawing
+ * eye relative to the LOD camera (x east, y north) and its absolute height (z). */
+struct draw_camera {
+	float vp[16];
+	float eye[4];
 };
 
 /* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts,
@@ -297,7 +311,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage,
 	                                 false)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(float) * 16, storage, true)) < 0)
+	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(struct draw_camera), storage, true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * (BINDINGS - 2) },
@@ -397,6 +411,20 @@ static int want_cmp(const void *a, const void *b)
 	return x < y ? -1 : x > y;
 }
 
+/* Records the frame's draw records with `pipe`, as many as the count at `count_at` in the
+ * view's counters (all of them where vkCmdDrawIndirectCount is missing: unused records
+ * hold zero instances). */
+static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd, VkPipeline pipe,
+                         const struct draw_push *dp, VkDeviceSize count_at)
+{
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
+	vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(*dp), dp);
+	if (t->vk->has.draw_indirect_count)
+		vkCmdDrawIndirectCount(cmd, v->cmds.buffer, 0, v->counters.buffer, count_at, t->max_draws, 16);
+	else
+		vkCmdDrawIndirect(cmd, v->cmds.buffer, 0, t->max_draws, 16);
+}
+
 int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
                         struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
                         struct relief_terrain_stats *st)
@@ -438,7 +466,12 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.ratio = f->hdr.ratio,
 	};
 	relief_view_matrix(lod, sp.vp);
-	relief_view_matrix_from(view, lod->eye, v->camera.map);
+	struct draw_camera *camera = v->camera.map;
+	relief_view_matrix_from(view, lod->eye, camera->vp);
+	camera->eye[0] = (float)(view->eye.x - lod->eye.x);
+	camera->eye[1] = (float)(view->eye.y - lod->eye.y);
+	camera->eye[2] = (float)view->eye.z;
+	camera->eye[3] = 0.0f;
 	struct draw_push dp = {
 		.viewport = { (float)lod->width, (float)lod->height },
 		.tau = (float)lod->tau,
@@ -452,7 +485,18 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.ratio = f->hdr.ratio,
 	};
 	memcpy(dp.vp, sp.vp, sizeof(dp.vp));
-	struct commands_push cp = { t->per_patch, t->blocks, t->per_draw, t->max_draws };
+	/* Back faces are hidden wherever the drawing camera is above the surface drawn under it:
+	 * along each ray the first surface met is then an upper side; inside the terrain the
+	 * underside stays drawn. The CPU's bound (relief_surface_height_bound(), every level's
+	 * blocks there, with a margin for the rounding of drawn heights) is conservative;
+	 * lod_commands.comp decides from the blocks actually drawn around the eye and splits
+	 * the draw count between the two pipelines, which needs vkCmdDrawIndirectCount. */
+	const double ground = relief_surface_height_bound(f, view->eye.x, view->eye.y);
+	const bool cpu_cull = !opts->no_face_cull && view->eye.z > ground + FACE_CULL_MARGIN;
+	const bool gpu_cull = !opts->no_face_cull && vk->has.draw_indirect_count;
+	struct commands_push cp = {
+		t->per_patch, t->blocks, t->per_draw, t->max_draws, cpu_cull, (float)FACE_CULL_MARGIN
+	};
 
 	VkCommandBuffer cmd;
 	int ret = relief_vk_cmd_begin(vk, &cmd);
@@ -517,12 +561,6 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (t->timer.pool)
 		relief_vk_timer_write(&t->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
-	/* Back faces are hidden wherever the drawing camera is above every surface the level of
-	 * detail can draw beneath it (relief_surface_height_bound(), with a margin for the
-	 * rounding of drawn heights): along each ray the first surface met is then an upper
-	 * side. Inside the terrain the underside stays drawn. */
-	const double ground = relief_surface_height_bound(f, view->eye.x, view->eye.y);
-	const bool face_cull = !opts->no_face_cull && view->eye.z > ground + FACE_CULL_MARGIN;
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
@@ -530,14 +568,13 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
 		dp.mode = mode | (uint32_t)pass;
-		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-		                  pass ? t->draw_wire : face_cull ? t->draw_cull : t->draw_fill);
-		vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(dp), &dp);
-		if (vk->has.draw_indirect_count)
-			vkCmdDrawIndirectCount(cmd, v->cmds.buffer, 0, v->counters.buffer, offsetof(struct counters, draws),
-			                       t->max_draws, 16);
-		else /* unused records hold zero instances */
-			vkCmdDrawIndirect(cmd, v->cmds.buffer, 0, t->max_draws, 16);
+		if (pass == 1)
+			draw_records(t, v, cmd, t->draw_wire, &dp, offsetof(struct counters, draws));
+		else if (gpu_cull) { /* one of the two counts is 0 */
+			draw_records(t, v, cmd, t->draw_cull, &dp, offsetof(struct counters, draw_split));
+			draw_records(t, v, cmd, t->draw_fill, &dp, offsetof(struct counters, draw_split) + 4);
+		} else
+			draw_records(t, v, cmd, cpu_cull ? t->draw_cull : t->draw_fill, &dp, offsetof(struct counters, draws));
 		if (t->stats_pool && pass == 0)
 			vkCmdEndQuery(cmd, t->stats_pool, 0);
 	}
@@ -552,7 +589,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 
 	const struct counters *c = v->counters.map;
 	struct relief_terrain_stats s = {
-		.patches = c->drawn, .draws = c->draws, .requests = c->wants, .face_culled = face_cull
+		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
+		.face_culled = gpu_cull ? c->face_culled != 0 : cpu_cull,
+		.cull_height = gpu_cull && c->found ? c->near_high : NAN
 	};
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */

@@ -29,6 +29,10 @@ struct relief_terrain_stats {
 	uint64_t select_ns;     /* coarse LOD compute: patch selection and draw records */
 	uint64_t lod_ns;        /* all LOD compute: select_ns plus the tessellation-factor pass */
 	bool face_culled;       /* back faces were culled: the camera is above the surface */
+	/* The height the GPU compared the eye with (lod_commands.comp): the highest block drawn
+	 * around it, as relief_drawn_height_bound(); NaN when no drawn block holds the eye or
+	 * the CPU decided (relief_surface_height_bound()) */
+	float cull_height;
 };
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,

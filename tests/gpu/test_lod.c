@@ -619,46 +619,70 @@ static void test_surface_height_bound(void **state)
 	}
 }
 
-/* Back faces are culled only where the camera is above every surface a level of detail can
- * draw beneath it, and there the picture is the one drawn with them: views over the land
- * and the water, grazing, straight down, high outside each terrain edge looking at its
- * curtain's outer face, a level of detail chosen elsewhere; relief at tau 1 and chunked.
- * The terrain covers the same pixels; the few depths that differ are pixels whose centre a
- * back face reached first through the rasteriser's rounding. Inside the mountain nothing is
- * culled and the picture is the same bits. */
+/* Back faces are culled only where the camera is above the surface drawn under it, and
+ * there the picture is the one drawn with them: views over the land and the water,
+ * grazing, straight down, high outside each terrain edge looking at its curtain's outer
+ * face, a level of detail chosen elsewhere; relief at tau 1 and chunked. The terrain covers
+ * the same pixels; the few depths that differ are pixels whose centre a back face reached
+ * first through the rasteriser's rounding. The decision is lod_commands.comp's, from the
+ * blocks drawn around the eye: it culls wherever the CPU's bound over every level would
+ * (relief_surface_height_bound()) and, at 450 m over the south-west corner, where that
+ * bound would not (a hill of 416 m within a block; at 400 m nothing is culled). Inside the
+ * mountain nothing is culled and the picture is the same bits. The height the GPU compared
+ * the eye with equals its CPU twin's over the patches the frame drew
+ * (relief_drawn_height_bound()). Without vkCmdDrawIndirectCount the CPU's bound decides
+ * alone (checked by hiding the feature). */
 static void test_face_cull_keeps_picture(void **state)
 {
 	struct bound_scene b;
 	bound_open(&b, DEM_PUGET);
 	/* Puget Sound: x, y in [0, 163840] m, Mt Rainier (4380 m) at (128480, 79200). */
-	const struct { struct pose pose; double roll_deg; bool frozen, culled; } cases[] = {
-		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 0, false, true },
-		{ { { 5000, 5000, 400 }, { 160000, 150000, 100 } }, 0, false, false },      /* grazing, below a hill's top */
-		{ { { 60000, 90000, 300 }, { 128480, 79200, 3000 } }, 0, false, true },    /* low, at Rainier */
-		{ { { 128480, 79200, 9000 }, { 128480, 79200, 0 } }, 150, false, true },    /* straight down */
-		{ { { -20000, 80000, 9000 }, { 10000, 80000, 0 } }, 0, false, true },       /* west curtain */
-		{ { { 183840, 80000, 9000 }, { 150000, 80000, 0 } }, 0, false, true },      /* east */
-		{ { { 80000, 183840, 9000 }, { 80000, 150000, 0 } }, 0, false, true },      /* north */
-		{ { { 80000, -20000, 9000 }, { 80000, 10000, 0 } }, 0, false, true },       /* south */
-		{ { { 60000, 40000, 1500 }, { 70000, 60000, 800 } }, -20, true, true },     /* LOD from elsewhere */
-		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, false, false },  /* inside the mountain */
+	/* frozen: the level of detail chosen 400 m east, `frozen` metres north and 300 m lower */
+	const struct { struct pose pose; double roll_deg, frozen; bool culled; } cases[] = {
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 0, 0, true },
+		{ { { 5000, 5000, 400 }, { 160000, 150000, 100 } }, 0, 0, false },      /* grazing, below a hill's top */
+		{ { { 5000, 5000, 450 }, { 160000, 150000, 100 } }, 0, 0, true },       /* above it */
+		{ { { 60000, 90000, 300 }, { 128480, 79200, 3000 } }, 0, 0, true },    /* low, at Rainier */
+		{ { { 128480, 79200, 9000 }, { 128480, 79200, 0 } }, 150, 0, true },    /* straight down */
+		{ { { -20000, 80000, 9000 }, { 10000, 80000, 0 } }, 0, 0, true },       /* west curtain */
+		{ { { 183840, 80000, 9000 }, { 150000, 80000, 0 } }, 0, 0, true },      /* east */
+		{ { { 80000, 183840, 9000 }, { 80000, 150000, 0 } }, 0, 0, true },      /* north */
+		{ { { 80000, -20000, 9000 }, { 80000, 10000, 0 } }, 0, 0, true },       /* south */
+		{ { { 60000, 40000, 1500 }, { 70000, 60000, 800 } }, -20, 300, true },     /* LOD from elsewhere */
+		{ { { 100000, 50000, 9000 }, { 100000, 50000, 0 } }, 0, 5000, true },     /* the same, looking down */
+		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, 0, false },  /* inside the mountain */
 	};
 	const enum relief_fine_lod methods[] = { RELIEF_FINE_ERRORS, RELIEF_FINE_FULL };
+	const bool has_count = vk->has.draw_indirect_count;
 	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	uint32_t only_gpu = 0, *ids = malloc(sizeof(uint32_t) * b.s.f->hdr.patch_count);
 	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
-		for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
+		for (size_t m = 0; m < 2 * sizeof(methods) / sizeof(methods[0]); m++) {
+			const bool gpu = m < 2; /* then again, relief only, with the CPU deciding */
+			if (!gpu && m == 3)
+				continue;
+			vk->has.draw_indirect_count = gpu && has_count;
 			struct relief_view v = pose_view(&cases[c].pose), lod = v;
 			v.roll = cases[c].roll_deg * M_PI / 180;
 			v.tau = lod.tau = 1.0;
-			if (cases[c].frozen) {
+			if (cases[c].frozen != 0) {
 				lod.eye.x += 400;
+				lod.eye.y += cases[c].frozen;
 				lod.eye.z -= 300;
 				lod.target.x += 3000;
 			}
-			struct relief_draw_options o = { .fine = methods[m], .lod_view = cases[c].frozen ? &lod : NULL };
+			const bool cpu = v.eye.z > relief_surface_height_bound(b.s.f, v.eye.x, v.eye.y) + 0.01;
+			struct relief_draw_options o = { .fine = methods[m % 2], .lod_view = cases[c].frozen != 0 ? &lod : NULL };
 			struct relief_terrain_stats culled, kept;
 			render_with(&b.s, &v, &o, b.lod, &culled);
 			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			/* the GPU's height is the CPU twin's over the blocks the frame drew */
+			uint32_t n = relief_terrain_view_drawn(b.s.view, ids, b.s.f->hdr.patch_count);
+			double twin = relief_drawn_height_bound(b.s.f, ids, n, v.eye.x, v.eye.y);
+			if (gpu)
+				assert_true(isnan(twin) ? isnan(culled.cull_height) : fabs(culled.cull_height - twin) < 1e-3);
+			else
+				assert_true(isnan(culled.cull_height));
 			o.no_face_cull = true;
 			render_with(&b.s, &v, &o, b.ref, &kept);
 			uint32_t terrain = 0, coverage = 0, depths = 0, colours = 0;
@@ -669,17 +693,24 @@ static void test_face_cull_keeps_picture(void **state)
 				depths += b.ref[k] != b.lod[k];
 				colours += memcmp(colour + 4 * k, ref_colour + 4 * k, 4) != 0;
 			}
-			print_message("view %zu, %s: %s, %u terrain pixels, %u change coverage, %u depth, %u colour\n", c,
-			              methods[m] == RELIEF_FINE_ERRORS ? "relief" : "chunked",
-			              culled.face_culled ? "culled" : "not culled", terrain, coverage, depths, colours);
+			print_message("view %zu, %s, %s deciding: %s (eye %.0f m, drawn blocks up to %.1f m, CPU bound: %s), "
+			              "%u terrain pixels, %u change coverage, %u depth, %u colour\n", c,
+			              methods[m % 2] == RELIEF_FINE_ERRORS ? "relief" : "chunked", gpu ? "GPU" : "CPU",
+			              culled.face_culled ? "culled" : "not culled", v.eye.z, twin, cpu ? "cull" : "draw", terrain,
+			              coverage, depths, colours);
 			assert_true(terrain > BW);
-			assert_int_equal(culled.face_culled, cases[c].culled);
+			assert_int_equal(culled.face_culled, gpu ? cases[c].culled : cpu);
+			assert_true(!cpu || culled.face_culled);
+			only_gpu += culled.face_culled && !cpu;
 			assert_false(kept.face_culled);
 			assert_int_equal(coverage, 0);
 			assert_true(depths <= terrain / 1000 && colours <= terrain / 1000);
-			if (!cases[c].culled)
+			if (!culled.face_culled)
 				assert_int_equal(depths + colours, 0);
 		}
+	vk->has.draw_indirect_count = has_count;
+	assert_true(only_gpu > 0); /* the view at 450 m */
+	free(ids);
 	free(colour);
 	bound_close(&b);
 }
