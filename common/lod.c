@@ -294,6 +294,7 @@ double relief_surface_height_bound(const struct relief_file *f, double x, double
 	float range[2 * 16 * 16];
 	assert(relief_block_ranges_per_patch(P) <= sizeof(range) / sizeof(range[0]));
 	double bound = -INFINITY;
+	uint32_t decoded = UINT32_MAX; /* the patch whose ranges are in range[] */
 	for (uint32_t l = 0; l < L; l++)
 		for (int probe = 0; probe < 4; probe++) {
 			/* level-l sample coordinates of the probe, clamped into the grid */
@@ -307,11 +308,14 @@ double relief_surface_height_bound(const struct relief_file *f, double x, double
 			bx = bx < blocks ? bx : blocks - 1;
 			by = by < blocks ? by : blocks - 1;
 			uint32_t id = relief_patch_id(l, ix, iy);
-			struct relief_patch_record r;
-			relief_file_record(f, id, &r);
-			if (r.flags & RELIEF_PATCH_EMPTY)
-				continue; /* never drawn */
-			relief_file_block_ranges(f, id, range);
+			if (id != decoded) { /* the probes mostly fall in one patch: read it once */
+				struct relief_patch_record r;
+				relief_file_record(f, id, &r);
+				if (r.flags & RELIEF_PATCH_EMPTY)
+					continue; /* never drawn */
+				relief_file_block_ranges(f, id, range);
+				decoded = id;
+			}
 			double high = range[2 * (by * blocks + bx) + 1];
 			bound = high > bound ? high : bound;
 		}

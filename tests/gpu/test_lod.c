@@ -652,15 +652,16 @@ static void test_face_cull_keeps_picture(void **state)
 		{ { { 100000, 50000, 9000 }, { 100000, 50000, 0 } }, 0, 5000, true },     /* the same, looking down */
 		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, 0, false },  /* inside the mountain */
 	};
-	const enum relief_fine_lod methods[] = { RELIEF_FINE_ERRORS, RELIEF_FINE_FULL };
+	/* relief and chunked with the GPU deciding, then relief with the CPU deciding */
+	const struct { enum relief_fine_lod fine; bool gpu; } runs[] = {
+		{ RELIEF_FINE_ERRORS, true }, { RELIEF_FINE_FULL, true }, { RELIEF_FINE_ERRORS, false },
+	};
 	const bool has_count = vk->has.draw_indirect_count;
 	uint8_t *colour = malloc((size_t)BW * BH * 4);
 	uint32_t only_gpu = 0, *ids = malloc(sizeof(uint32_t) * b.s.f->hdr.patch_count);
 	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
-		for (size_t m = 0; m < 2 * sizeof(methods) / sizeof(methods[0]); m++) {
-			const bool gpu = m < 2; /* then again, relief only, with the CPU deciding */
-			if (!gpu && m == 3)
-				continue;
+		for (size_t m = 0; m < sizeof(runs) / sizeof(runs[0]); m++) {
+			const bool gpu = runs[m].gpu;
 			vk->has.draw_indirect_count = gpu && has_count;
 			struct relief_view v = pose_view(&cases[c].pose), lod = v;
 			v.roll = cases[c].roll_deg * M_PI / 180;
@@ -672,7 +673,7 @@ static void test_face_cull_keeps_picture(void **state)
 				lod.target.x += 3000;
 			}
 			const bool cpu = v.eye.z > relief_surface_height_bound(b.s.f, v.eye.x, v.eye.y) + 0.01;
-			struct relief_draw_options o = { .fine = methods[m % 2], .lod_view = cases[c].frozen != 0 ? &lod : NULL };
+			struct relief_draw_options o = { .fine = runs[m].fine, .lod_view = cases[c].frozen != 0 ? &lod : NULL };
 			struct relief_terrain_stats culled, kept;
 			render_with(&b.s, &v, &o, b.lod, &culled);
 			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
@@ -695,7 +696,7 @@ static void test_face_cull_keeps_picture(void **state)
 			}
 			print_message("view %zu, %s, %s deciding: %s (eye %.0f m, drawn blocks up to %.1f m, CPU bound: %s), "
 			              "%u terrain pixels, %u change coverage, %u depth, %u colour\n", c,
-			              methods[m % 2] == RELIEF_FINE_ERRORS ? "relief" : "chunked", gpu ? "GPU" : "CPU",
+			              runs[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", gpu ? "GPU" : "CPU",
 			              culled.face_culled ? "culled" : "not culled", v.eye.z, twin, cpu ? "cull" : "draw", terrain,
 			              coverage, depths, colours);
 			assert_true(terrain > BW);
