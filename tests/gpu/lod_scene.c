@@ -1,0 +1,196 @@
+/* The LOD tests' scenes (lod_scene.h). */
+#include <math.h>
+#include <stdatomic.h>
+#include <string.h>
+
+#include "decode.h"
+#include "lod_scene.h"
+#include "pack.h"
+#include "vk.h"
+
+static enum relief_log_level lod_scene_level = RELIEF_LOG_WARN;
+static struct relief_logger lod_scene_log = { relief_log_stderr, &lod_scene_level };
+
+void scene_open_at(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h,
+                   double dx, double dy, uint32_t max_layers)
+{
+	s->ctx = vk;
+	struct relief_dem dem;
+	test_dem_load(d, &dem);
+	dem.origin_x += dx;
+	dem.origin_y += dy;
+	struct relief_pack_options o = { .patch = 129, .ratio = 2, .tolerance = tol };
+	assert_int_equal(relief_pack_memory(&dem, &o, &s->img, &s->size, NULL), 0);
+	relief_dem_finish(&dem);
+	char err[256];
+	assert_int_equal(relief_file_open_memory(s->img, s->size, &s->f, err, sizeof(err)), 0);
+	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = max_layers };
+	assert_int_equal(relief_patch_cache_create(vk, s->f, &co, &lod_scene_log, &s->cache), 0);
+	assert_int_equal(relief_vk_target_init(vk, &s->target, w, h), 0);
+	assert_int_equal(relief_terrain_create(vk, s->f, s->cache, &s->target, &s->terrain), 0);
+	assert_int_equal(relief_terrain_view_create(s->terrain, &s->view), 0);
+}
+
+void scene_open(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h)
+{
+	scene_open_at(s, vk, d, tol, w, h, 0, 0, 0);
+}
+
+void scene_close(struct scene *s)
+{
+	relief_terrain_view_destroy(s->view);
+	relief_terrain_destroy(s->terrain);
+	relief_vk_target_finish(s->ctx, &s->target);
+	relief_patch_cache_destroy(s->cache);
+	relief_file_close(s->f);
+	free(s->img);
+}
+
+void load_everything(struct scene *s)
+{
+	for (uint32_t l = 0; l < s->f->hdr.levels; l++) {
+		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++)
+			relief_patch_cache_request(s->cache, id, 0);
+		assert_int_equal(relief_patch_cache_flush(s->cache, 1), 0);
+	}
+}
+
+int cmp_u32(const void *a, const void *b)
+{
+	uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+	return x < y ? -1 : x > y;
+}
+
+void render_with(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts, float *depth,
+                 struct relief_terrain_stats *st)
+{
+	for (uint64_t frame = 100; frame < 140; frame++) {
+		assert_int_equal(relief_patch_cache_flush(s->cache, frame), 0);
+		assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame, opts, st), 0);
+		if (st->requests == 0)
+			break;
+	}
+	assert_int_equal(st->requests, 0);
+	memcpy(depth, s->target.depth_readback.map, sizeof(float) * v->width * v->height);
+}
+
+void render(struct scene *s, struct relief_view *v, float *depth, struct relief_terrain_stats *st)
+{
+	render_with(s, v, NULL, depth, st);
+}
+
+struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref,
+                          const float *lod, const float *finest, uint32_t fw, uint32_t fh)
+{
+	struct comparison c = { 0 };
+	const int W = (int)v->width, H = (int)v->height, r = (int)ceil(v->tau) + 1;
+	for (int y = 0; y < H; y++)
+		for (int x = 0; x < W; x++) {
+			bool interior = true;
+			for (int dy = -r; dy <= r && interior; dy++)
+				for (int dx = -r; dx <= r && interior; dx++) {
+					int xx = x + dx, yy = y + dy;
+					interior = xx >= 0 && yy >= 0 && xx < W && yy < H && ref[yy * W + xx] > 0.0f;
+				}
+			float d = lod[y * W + x];
+			if (interior && d <= 0.0f)
+				c.holes++;
+			if (d > 0.0f && ref[y * W + x] > 0.0f) {
+				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
+				double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
+				double px = relief_view_segment_px(v, pt, e);
+				if (px > c.worst_px) {
+					c.worst_px = px;
+					c.worst_m = e;
+				}
+				c.both++;
+			}
+		}
+	return c;
+}
+
+uint32_t view_levels(const struct scene *s, const struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
+                     uint32_t *counts)
+{
+	uint32_t levels = 0;
+	*n = relief_terrain_view_drawn(tv, ids, s->f->hdr.patch_count);
+	for (uint32_t i = 0; i < *n; i++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));
+		levels |= 1u << l;
+		if (counts)
+			counts[l]++;
+	}
+	return levels;
+}
+
+uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n)
+{
+	return view_levels(s, s->view, ids, n, NULL);
+}
+
+void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem)
+{
+	scene_open(&b->s, vk, dem, 1.0, BW, BH);
+	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
+	b->finest = malloc(sizeof(float) * b->fw * b->fh);
+	assert_int_equal(relief_decode_level(b->s.f, b->s.f->hdr.levels - 1, 0, b->finest, NULL), 0);
+	b->ref = malloc(sizeof(float) * BW * BH);
+	b->lod = malloc(sizeof(float) * BW * BH);
+}
+
+void bound_close(struct bound_scene *b)
+{
+	free(b->finest);
+	free(b->ref);
+	free(b->lod);
+	struct relief_vk *vk = b->s.ctx;
+	scene_close(&b->s);
+	assert_int_equal(atomic_load(&vk->validation_messages), 0);
+}
+
+struct relief_view pose_view(const struct pose *p)
+{
+	return (struct relief_view){
+		.eye = { p->eye[0], p->eye[1], p->eye[2] },
+		.target = { p->at[0], p->at[1], p->at[2] },
+		.fovy = 50 * M_PI / 180, .width = BW, .height = BH, .znear = 5, .zfar = 4e5, .tau = 0.001,
+	};
+}
+
+void within_tau_of_reference(struct scene *s, struct relief_view *v, const double *taus, size_t n,
+                             const char *what, uint32_t min_pixels)
+{
+	const uint32_t W = v->width, H = v->height;
+	uint32_t fw, fh;
+	relief_level_extent(&s->f->hdr, s->f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
+	float *lod = malloc(sizeof(float) * W * H);
+	assert_int_equal(relief_decode_level(s->f, s->f->hdr.levels - 1, 0, finest, NULL), 0);
+	struct relief_terrain_stats st;
+	v->tau = 0.001;
+	render(s, v, ref, &st);
+	for (size_t k = 0; k < n; k++) {
+		v->tau = taus[k];
+		render(s, v, lod, &st);
+		struct comparison c = compare(s, v, ref, lod, finest, fw, fh);
+		print_message("%s, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px (%.1f m) over "
+		              "%u pixels\n", what, v->tau, st.patches, (unsigned long long)st.triangles, c.holes, c.worst_px,
+		              c.worst_m, c.both);
+		assert_int_equal(c.holes, 0);
+		assert_true(c.both > min_pixels);
+		assert_true(c.worst_px <= v->tau);
+	}
+	free(finest);
+	free(ref);
+	free(lod);
+}
+
+void benchmark_frame_within_tau(struct relief_vk *vk, enum test_dem dem, struct relief_view *v, double tau,
+                                const char *what)
+{
+	struct scene s;
+	scene_open(&s, vk, dem, 1.0, v->width, v->height);
+	within_tau_of_reference(&s, v, &tau, 1, what, v->width * v->height / 4);
+	scene_close(&s);
+}

@@ -1,0 +1,94 @@
+/* Scenes for the LOD tests (test_lod_*.c): a bundled DEM packed in memory, a patch cache,
+ * a render target and one view on the test group's Vulkan context; rendering until the
+ * view asks for nothing more; and the comparison of a LOD render with a full-resolution
+ * one (cracks and vertical error in pixels against the finest decoded surface). */
+#pragma once
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "../data_load.h"
+#include "format.h"
+#include "lod.h"
+#include "patch_cache.h"
+#include "terrain.h"
+
+struct scene {
+	struct relief_vk *ctx; /* the test group's context */
+	uint8_t *img;
+	size_t size;
+	struct relief_file *f;
+	struct relief_patch_cache *cache;
+	struct relief_vk_target target;
+	struct relief_terrain *terrain;
+	struct relief_terrain_view *view;
+};
+
+/* A DEM packed at tolerance tol and moved by (dx, dy), in a 64 MiB cache of at most
+ * max_layers layers (0: as many as the budget holds), a w x h target and one view. */
+void scene_open_at(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h,
+                   double dx, double dy, uint32_t max_layers);
+void scene_open(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h);
+/* Also for a scene whose parts were made by hand (ctx set, img NULL). */
+void scene_close(struct scene *s);
+
+/* Everything resident, so that selection is the only variable. */
+void load_everything(struct scene *s);
+
+int cmp_u32(const void *a, const void *b);
+
+/* Renders v and copies out depth (Vulkan [0, 1]). Converges: draws until nothing is asked. */
+void render_with(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts, float *depth,
+                 struct relief_terrain_stats *st);
+void render(struct scene *s, struct relief_view *v, float *depth, struct relief_terrain_stats *st);
+
+struct comparison {
+	uint32_t holes, both; /* background inside the reference's silhouette; terrain in both */
+	double worst_px, worst_m; /* largest vertical error against the finest decoded surface */
+};
+
+/* A LOD render (depth `lod`) against the full-resolution one (`ref`) of the same view. A
+ * pixel is inside the silhouette when the reference shows terrain within ceil(tau) + 1
+ * pixels all around it. */
+struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref, const float *lod,
+                          const float *finest, uint32_t fw, uint32_t fh);
+
+/* View tv's last frame: its drawn patches (ids[], *n of them) and the mask of their
+ * levels; if counts is not NULL, each level's number of patches is added to
+ * counts[RELIEF_MAX_LEVELS]. */
+uint32_t view_levels(const struct scene *s, const struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
+                     uint32_t *counts);
+/* The scene's own view's last frame (view_levels()). */
+uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n);
+
+struct pose {
+	double eye[3], at[3];
+};
+
+enum { BW = 320, BH = 180 }; /* bound_scene size */
+
+/* A BW x BH scene of a DEM packed at 1 m, its finest level decoded, two depth images. */
+struct bound_scene {
+	struct scene s;
+	uint32_t fw, fh;
+	float *finest, *ref, *lod;
+};
+
+void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);
+/* Also fails the test if the validation layer spoke. */
+void bound_close(struct bound_scene *b);
+
+/* The view of a pose, with a tau fine enough for a full-resolution reference. */
+struct relief_view pose_view(const struct pose *p);
+
+/* Renders v at full resolution and at each of `taus`, and checks every LOD frame against
+ * the reference: no cracks, at least min_pixels showing terrain in both, the vertical error
+ * within tau at every one of them. */
+void within_tau_of_reference(struct scene *s, struct relief_view *v, const double *taus, size_t n, const char *what,
+                             uint32_t min_pixels);
+
+/* One frame a benchmark flight found over tau, on a file packed at 1 m: within tau now, at
+ * at least a quarter of the pixels showing terrain in both renders. */
+void benchmark_frame_within_tau(struct relief_vk *vk, enum test_dem dem, struct relief_view *v, double tau,
+                                const char *what);

@@ -1,0 +1,421 @@
+/* The LOD picture: what culling and shading must not change (blocks the camera cannot
+ * see, back faces, roll, detail in the shading), an old file version, no-data holes.
+ * Validation layer on, zero messages. */
+#include <math.h>
+#include <stdbool.h>
+#include <string.h>
+
+#include "decode.h"
+#include "gpu_test.h"
+#include "lod_scene.h"
+#include "pack.h"
+
+#define vk gpu_test_vk
+
+/* Roll turns the picture about its centre: a camera rolled by 180 degrees shows the same
+ * frame upside down (pixel (x, y) at (W-1-x, H-1-y)); the rotation maps pixel centres onto
+ * pixel centres and keeps the frustum, so the same patches are drawn and depths agree
+ * except where a triangle edge passes through a pixel centre (the rasteriser's tie rule is
+ * not symmetric). A right bank (positive roll) raises the horizon on the right. */
+static void test_roll_turns_picture(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	const struct pose level = { { 20000, 20000, 2500 }, { 60000, 60000, 2500 } };
+	struct relief_view v = pose_view(&level);
+	v.tau = 1;
+	struct relief_terrain_stats st0, st1;
+	render(&b.s, &v, b.ref, &st0);
+	v.roll = M_PI;
+	render(&b.s, &v, b.lod, &st1);
+	assert_int_equal(st0.patches, st1.patches);
+	uint32_t terrain = 0, differ = 0;
+	for (int y = 0; y < BH; y++)
+		for (int x = 0; x < BW; x++) {
+			float a = b.ref[y * BW + x], c = b.lod[(BH - 1 - y) * BW + (BW - 1 - x)];
+			terrain += a > 0.0f;
+			differ += (a > 0.0f) != (c > 0.0f) || fabsf(a - c) > 1e-3f * fmaxf(a, c);
+		}
+	print_message("roll 180: %u of %u terrain pixels differ from the level frame turned over\n", differ, terrain);
+	assert_true(terrain > BW * BH / 4);
+	assert_true(differ <= terrain / 200);
+	/* Right bank by 20 degrees: the first terrain row from the top, right column above the left. */
+	v.roll = 20 * M_PI / 180;
+	render(&b.s, &v, b.lod, &st1);
+	int top[2] = { BH, BH };
+	for (int side = 0; side < 2; side++) {
+		int x = side ? BW - 1 : 0;
+		for (int y = BH - 1; y >= 0; y--)
+			if (b.lod[y * BW + x] > 0.0f)
+				top[side] = y;
+	}
+	print_message("right bank: horizon at row %d on the left, %d on the right\n", top[0], top[1]);
+	assert_true(top[1] + 20 < top[0]);
+	bound_close(&b);
+}
+
+/* The picture keeps the data's resolution at coarse tessellation: looking straight down on
+ * Mt Rainier (no silhouettes), the frame at tau = 8 looks nearly like the full-resolution
+ * frame, because normals and the heights that pick colours come from the patch's maps per
+ * fragment. What differs is where a vertical error moves a point sideways off the view's
+ * centre. Negative controls, run by hand: per-vertex normals and heights (as before) give
+ * an RMS difference of 14.75 steps, per-fragment normals with per-vertex heights 6.71;
+ * both per fragment 3.03. */
+static void test_shading_keeps_detail(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	const struct pose pose = { { 128480, 79200, 12000 }, { 128480, 79200, 0 } };
+	struct relief_view v = pose_view(&pose);
+	struct relief_terrain_stats full, coarse;
+	render(&b.s, &v, b.ref, &full);
+	uint8_t *ref = malloc((size_t)4 * BW * BH);
+	memcpy(ref, b.s.target.color_readback.map, (size_t)4 * BW * BH);
+	v.tau = 8;
+	render(&b.s, &v, b.lod, &coarse);
+	const uint8_t *rgba = b.s.target.color_readback.map;
+	double sum = 0;
+	for (size_t k = 0; k < (size_t)BW * BH; k++)
+		for (int c = 0; c < 3; c++)
+			sum += ((double)ref[4 * k + c] - rgba[4 * k + c]) * ((double)ref[4 * k + c] - rgba[4 * k + c]) / 3.0;
+	double rms = sqrt(sum / (BW * BH));
+	print_message("straight down on Rainier: %llu triangles at full resolution, %llu at tau 8; RMS colour "
+	              "difference %.2f steps\n", (unsigned long long)full.triangles, (unsigned long long)coarse.triangles, rms);
+	assert_true(coarse.triangles * 4 < full.triangles); /* really coarser */
+	assert_true(rms < 4.5);
+	free(ref);
+	bound_close(&b);
+}
+
+/* Blocks the draw camera cannot see are not tessellated (block_unseen() in
+ * lod_factors.comp): the picture, colour and depth, is bit for bit the one drawn with every
+ * block tessellated, from views that cut through patches every way (grazing, steep, banked,
+ * straight down, inside the mountain, on a patch corner, a level of detail chosen for one
+ * camera and drawn from another), for relief at tau 1 and 4 and for chunked LOD; and
+ * culling draws fewer triangles. */
+static void test_block_cull_keeps_picture(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	const struct { struct pose pose; double roll_deg; bool frozen; } cases[] = {
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 0, false },
+		{ { { 5000, 5000, 400 }, { 160000, 150000, 100 } }, 0, false },        /* grazing */
+		{ { { 126000, 77000, 4200 }, { 128480, 79200, 4000 } }, 0, false },    /* at the summit cliffs */
+		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, false },    /* inside the mountain */
+		{ { { 81920, 81920, 2500 }, { 90000, 81920, 0 } }, 35, false },         /* on a patch corner, banked */
+		{ { { 128480, 79200, 9000 }, { 128480, 79200, 0 } }, 150, false },      /* straight down */
+		{ { { 60000, 40000, 1500 }, { 70000, 60000, 800 } }, -20, true },       /* LOD from elsewhere */
+	};
+	const struct { enum relief_fine_lod fine; double tau; } methods[] = {
+		{ RELIEF_FINE_ERRORS, 1.0 }, { RELIEF_FINE_ERRORS, 4.0 }, { RELIEF_FINE_FULL, 1.0 },
+	};
+	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	uint64_t culled = 0, all = 0;
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
+		for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
+			struct relief_view v = pose_view(&cases[c].pose), lod = v;
+			v.roll = cases[c].roll_deg * M_PI / 180;
+			v.tau = lod.tau = methods[m].tau;
+			if (cases[c].frozen) { /* chosen 400 m to the east and 300 m lower, looking elsewhere */
+				lod.eye.x += 400;
+				lod.eye.z -= 300;
+				lod.target.x += 3000;
+			}
+			struct relief_draw_options o = { .fine = methods[m].fine, .lod_view = cases[c].frozen ? &lod : NULL };
+			struct relief_terrain_stats with, without;
+			render_with(&b.s, &v, &o, b.lod, &with);
+			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			o.no_block_cull = true;
+			render_with(&b.s, &v, &o, b.ref, &without);
+			uint32_t terrain = 0;
+			for (size_t k = 0; k < (size_t)BW * BH; k++)
+				terrain += b.ref[k] > 0.0f;
+			print_message("view %zu, %s tau %g: %u terrain pixels, %llu triangles culled, %llu not\n", c,
+			              methods[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v.tau, terrain,
+			              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
+			assert_true(terrain > 0);
+			assert_memory_equal(b.lod, b.ref, sizeof(float) * BW * BH);
+			assert_memory_equal(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			assert_true(with.triangles <= without.triangles);
+			culled += with.triangles;
+			all += without.triangles;
+		}
+	print_message("all views: %llu triangles with culling, %llu without\n", (unsigned long long)culled,
+	              (unsigned long long)all);
+	assert_true(culled < all); /* pipeline statistics are supported on lavapipe */
+	free(colour);
+	bound_close(&b);
+}
+
+/* relief_surface_height_bound() holds for whatever a level of detail draws: every sample of
+ * every level at the corners of the cell around a point, at every block level's spacing
+ * (the vertices of any triangle that can cover it), lies at or below the bound there; at
+ * random points and at points on block and patch borders, where the covering triangle may
+ * belong to either side. And the bound is local: over most points it is below the file's
+ * global bound (highest sample plus delta_0). */
+static void test_surface_height_bound(void **state)
+{
+	(void)state;
+	for (enum test_dem d = DEM_PUGET; d <= DEM_ALPS; d++) {
+		struct relief_dem dem;
+		test_dem_load(d, &dem);
+		struct relief_pack_options po = { .patch = 129, .ratio = 2, .tolerance = 1.0 };
+		uint8_t *img;
+		size_t size;
+		assert_int_equal(relief_pack_memory(&dem, &po, &img, &size, NULL), 0);
+		relief_dem_finish(&dem);
+		struct relief_file *f;
+		char err[256];
+		assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+		const struct relief_header *hd = &f->hdr;
+		const uint32_t L = hd->levels, N = 4000;
+		const double global = hd->height_max + f->layout.delta[0];
+		uint32_t fw, fh, local = 0, checked = 0;
+		relief_level_extent(hd, L - 1, &fw, &fh);
+		double *gx = malloc(sizeof(double) * N), *gy = malloc(sizeof(double) * N), *bound = malloc(sizeof(double) * N);
+		uint64_t seed = 12345;
+		for (uint32_t i = 0; i < N; i++) { /* finest-grid coordinates; every fourth on a border */
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			gx[i] = (double)(seed >> 11) / 9007199254740992.0 * (fw - 1);
+			seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+			gy[i] = (double)(seed >> 11) / 9007199254740992.0 * (fh - 1);
+			if (i % 4 == 1) /* on a vertical block border of some level */
+				gx[i] = floor(gx[i] / RELIEF_BLOCK_CELLS) * RELIEF_BLOCK_CELLS;
+			if (i % 4 == 3) /* on a patch corner */
+				gx[i] = floor(gx[i] / (hd->patch_size - 1)) * (hd->patch_size - 1),
+				gy[i] = floor(gy[i] / (hd->patch_size - 1)) * (hd->patch_size - 1);
+			bound[i] = relief_surface_height_bound(f, hd->origin_x + gx[i] * hd->spacing_x,
+			                                       hd->origin_y - gy[i] * hd->spacing_y);
+			local += bound[i] < global;
+		}
+		for (uint32_t l = 0; l < L; l++) {
+			uint32_t w, h;
+			relief_level_extent(hd, l, &w, &h);
+			float *q = malloc(sizeof(float) * w * h);
+			assert_int_equal(relief_decode_level(f, l, 0, q, NULL), 0);
+			const double scale = (double)(1u << (L - 1 - l)); /* finest samples per level-l sample */
+			for (uint32_t i = 0; i < N; i++)
+				for (uint32_t s = 1; s <= 16; s *= 2) { /* block levels: every s-th sample */
+					double cx = gx[i] / scale, cy = gy[i] / scale;
+					uint32_t x0 = (uint32_t)(floor(cx / s) * s), y0 = (uint32_t)(floor(cy / s) * s);
+					/* the cell's corners; on a cell border also the cell before it */
+					for (int dy = y0 == cy ? -1 : 0; dy <= 1; dy++)
+						for (int dx = x0 == cx ? -1 : 0; dx <= 1; dx++) {
+							int64_t x = (int64_t)x0 + dx * (int64_t)s, y = (int64_t)y0 + dy * (int64_t)s;
+							if (x < 0 || y < 0 || x >= w || y >= h)
+								continue;
+							float z = q[(size_t)y * w + (size_t)x];
+							if (!(z <= bound[i] + 1e-3))
+								fail_msg("%s level %u spacing %u: sample (%lld, %lld) at %.3f m, above the bound "
+								         "%.3f m at (%.2f, %.2f)", test_dem_name(d), l, s, (long long)x,
+								         (long long)y, z, bound[i], gx[i], gy[i]);
+							checked++;
+						}
+				}
+			free(q);
+		}
+		print_message("%s: %u samples at or below the bound; bound local at %u of %u points\n", test_dem_name(d),
+		              checked, local, N);
+		assert_true(local > N / 2);
+		/* Outside the grid: the global bound. */
+		assert_true(relief_surface_height_bound(f, hd->origin_x - 10 * hd->spacing_x, hd->origin_y) == global);
+		assert_true(relief_surface_height_bound(f, NAN, hd->origin_y) == global);
+		free(gx);
+		free(gy);
+		free(bound);
+		relief_file_close(f);
+		free(img);
+	}
+}
+
+/* Back faces are culled only where the camera is above the surface drawn under it, and
+ * there the picture is the one drawn with them: views over the land and the water,
+ * grazing, straight down, high outside each terrain edge looking at its curtain's outer
+ * face, a level of detail chosen elsewhere; relief at tau 1 and chunked. The terrain covers
+ * the same pixels; the few depths that differ are pixels whose centre a back face reached
+ * first through the rasteriser's rounding. The decision is lod_commands.comp's, from the
+ * blocks drawn around the eye: it culls wherever the CPU's bound over every level would
+ * (relief_surface_height_bound()) and, at 450 m over the south-west corner, where that
+ * bound would not (a hill of 416 m within a block; at 400 m nothing is culled). Inside the
+ * mountain nothing is culled and the picture is the same bits. The height the GPU compared
+ * the eye with equals its CPU twin's over the patches the frame drew
+ * (relief_drawn_height_bound()). Without vkCmdDrawIndirectCount the CPU's bound decides
+ * alone (checked by hiding the feature). */
+static void test_face_cull_keeps_picture(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	/* Puget Sound: x, y in [0, 163840] m, Mt Rainier (4380 m) at (128480, 79200). */
+	/* frozen: the level of detail chosen 400 m east, `frozen` metres north and 300 m lower */
+	const struct { struct pose pose; double roll_deg, frozen; bool culled; } cases[] = {
+		{ { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } }, 0, 0, true },
+		{ { { 5000, 5000, 400 }, { 160000, 150000, 100 } }, 0, 0, false },      /* grazing, below a hill's top */
+		{ { { 5000, 5000, 450 }, { 160000, 150000, 100 } }, 0, 0, true },       /* above it */
+		{ { { 60000, 90000, 300 }, { 128480, 79200, 3000 } }, 0, 0, true },    /* low, at Rainier */
+		{ { { 128480, 79200, 9000 }, { 128480, 79200, 0 } }, 150, 0, true },    /* straight down */
+		{ { { -20000, 80000, 9000 }, { 10000, 80000, 0 } }, 0, 0, true },       /* west curtain */
+		{ { { 183840, 80000, 9000 }, { 150000, 80000, 0 } }, 0, 0, true },      /* east */
+		{ { { 80000, 183840, 9000 }, { 80000, 150000, 0 } }, 0, 0, true },      /* north */
+		{ { { 80000, -20000, 9000 }, { 80000, 10000, 0 } }, 0, 0, true },       /* south */
+		{ { { 60000, 40000, 1500 }, { 70000, 60000, 800 } }, -20, 300, true },     /* LOD from elsewhere */
+		{ { { 100000, 50000, 9000 }, { 100000, 50000, 0 } }, 0, 5000, true },     /* the same, looking down */
+		{ { { 128480, 79200, 3000 }, { 130000, 80000, 3000 } }, 0, 0, false },  /* inside the mountain */
+	};
+	/* relief and chunked with the GPU deciding, then relief with the CPU deciding */
+	const struct { enum relief_fine_lod fine; bool gpu; } runs[] = {
+		{ RELIEF_FINE_ERRORS, true }, { RELIEF_FINE_FULL, true }, { RELIEF_FINE_ERRORS, false },
+	};
+	const bool has_count = vk->has.draw_indirect_count;
+	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	uint32_t only_gpu = 0, *ids = malloc(sizeof(uint32_t) * b.s.f->hdr.patch_count);
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
+		for (size_t m = 0; m < sizeof(runs) / sizeof(runs[0]); m++) {
+			const bool gpu = runs[m].gpu;
+			vk->has.draw_indirect_count = gpu && has_count;
+			struct relief_view v = pose_view(&cases[c].pose), lod = v;
+			v.roll = cases[c].roll_deg * M_PI / 180;
+			v.tau = lod.tau = 1.0;
+			if (cases[c].frozen != 0) {
+				lod.eye.x += 400;
+				lod.eye.y += cases[c].frozen;
+				lod.eye.z -= 300;
+				lod.target.x += 3000;
+			}
+			const bool cpu = v.eye.z > relief_surface_height_bound(b.s.f, v.eye.x, v.eye.y) + 0.01;
+			struct relief_draw_options o = { .fine = runs[m].fine, .lod_view = cases[c].frozen != 0 ? &lod : NULL };
+			struct relief_terrain_stats culled, kept;
+			render_with(&b.s, &v, &o, b.lod, &culled);
+			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+			/* the GPU's height is the CPU twin's over the blocks the frame drew */
+			uint32_t n = relief_terrain_view_drawn(b.s.view, ids, b.s.f->hdr.patch_count);
+			double twin = relief_drawn_height_bound(b.s.f, ids, n, v.eye.x, v.eye.y);
+			if (gpu)
+				assert_true(isnan(twin) ? isnan(culled.cull_height) : fabs(culled.cull_height - twin) < 1e-3);
+			else
+				assert_true(isnan(culled.cull_height));
+			o.no_face_cull = true;
+			render_with(&b.s, &v, &o, b.ref, &kept);
+			uint32_t terrain = 0, coverage = 0, depths = 0, colours = 0;
+			const uint8_t *ref_colour = b.s.target.color_readback.map;
+			for (size_t k = 0; k < (size_t)BW * BH; k++) {
+				terrain += b.ref[k] > 0.0f;
+				coverage += (b.ref[k] > 0.0f) != (b.lod[k] > 0.0f);
+				depths += b.ref[k] != b.lod[k];
+				colours += memcmp(colour + 4 * k, ref_colour + 4 * k, 4) != 0;
+			}
+			print_message("view %zu, %s, %s deciding: %s (eye %.0f m, drawn blocks up to %.1f m, CPU bound: %s), "
+			              "%u terrain pixels, %u change coverage, %u depth, %u colour\n", c,
+			              runs[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", gpu ? "GPU" : "CPU",
+			              culled.face_culled ? "culled" : "not culled", v.eye.z, twin, cpu ? "cull" : "draw", terrain,
+			              coverage, depths, colours);
+			assert_true(terrain > BW);
+			assert_int_equal(culled.face_culled, gpu ? cases[c].culled : cpu);
+			assert_true(!cpu || culled.face_culled);
+			only_gpu += culled.face_culled && !cpu;
+			assert_false(kept.face_culled);
+			assert_int_equal(coverage, 0);
+			assert_true(depths <= terrain / 1000 && colours <= terrain / 1000);
+			if (!culled.face_culled)
+				assert_int_equal(depths + colours, 0);
+		}
+	vk->has.draw_indirect_count = has_count;
+	assert_true(only_gpu > 0); /* the view at 450 m */
+	free(ids);
+	free(colour);
+	bound_close(&b);
+}
+
+/* A version-2 file (tests/data: the Mont Blanc crop, patch 65) still renders within tau
+ * and without cracks: its block errors are read as eps_d + Err(P) and its block ranges as
+ * the patch's range (format.h), a bound and a measuring height the renderer can use. */
+static void test_old_version_renders(void **state)
+{
+	enum { W = 320, H = 180 };
+	struct scene s = { .ctx = vk };
+	char err[256];
+	assert_int_equal(relief_file_open(test_data("alps-crop-140x100-v2.relief"), &s.f, err, sizeof(err)), 0);
+	assert_int_equal(s.f->hdr.version, 2);
+	struct relief_patch_cache_options co = { .budget_bytes = 16ull << 20 };
+	assert_int_equal(relief_patch_cache_create(vk, s.f, &co, &gpu_test_log, &s.cache), 0);
+	assert_int_equal(relief_vk_target_init(vk, &s.target, W, H), 0);
+	assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &s.terrain), 0);
+	assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	/* The crop spans x in [0, 12886] m, y in [0, 9177] m: from the south, looking north and down. */
+	struct relief_view v = {
+		.eye = { 6400, -3000, 5500 }, .target = { 6400, 5000, 2000 },
+		.fovy = 50 * M_PI / 180, .width = W, .height = H, .znear = 5, .zfar = 1e5,
+	};
+	const double taus[] = { 1.0, 4.0 };
+	within_tau_of_reference(&s, &v, taus, 2, "version 2 file", W * H / 8);
+	scene_close(&s);
+}
+
+/* No-data stays a hole: looking down on Luxembourg (54 % valid, no-data outside the
+ * border), no pixel shows terrain over a cell whose four samples are all no-data, and the
+ * valid area is drawn. */
+static void test_nodata_hidden(void **state)
+{
+	enum { W = 256, H = 256 };
+	struct scene s;
+	scene_open(&s, vk, DEM_LUX, 1.0, W, H);
+	const struct relief_header *hd = &s.f->hdr;
+	double cx = hd->origin_x + 0.5 * hd->spacing_x * (hd->width - 1);
+	double cy = hd->origin_y - 0.5 * hd->spacing_y * (hd->height - 1);
+	struct relief_view v = {
+		.eye = { cx, cy - 100, 120000 }, .target = { cx, cy, 0 },
+		.fovy = 40 * M_PI / 180, .width = W, .height = H, .znear = 1000, .zfar = 4e5, .tau = 1,
+	};
+	float *depth = malloc(sizeof(float) * W * H);
+	struct relief_terrain_stats st;
+	render(&s, &v, depth, &st);
+	uint32_t w, h;
+	relief_level_extent(hd, hd->levels - 1, &w, &h);
+	float *finest = malloc(sizeof(float) * w * h);
+	uint8_t *valid = malloc((size_t)w * h);
+	assert_int_equal(relief_decode_level(s.f, hd->levels - 1, 0, finest, valid), 0);
+	uint32_t over_hole = 0, over_data = 0, data_pixels = 0;
+	for (int y = 0; y < H; y++)
+		for (int x = 0; x < W; x++) {
+			/* The terrain point, or where the background pixel's ray meets z = 300 m. */
+			bool terrain = depth[y * W + x] > 0.0f;
+			struct relief_vec3 p = relief_view_unproject(&v, x, y, terrain ? depth[y * W + x] : 0.5);
+			if (!terrain) {
+				double t = (300.0 - v.eye.z) / (p.z - v.eye.z);
+				p = (struct relief_vec3){ v.eye.x + t * (p.x - v.eye.x), v.eye.y + t * (p.y - v.eye.y), 300.0 };
+			}
+			double gx = (p.x - hd->origin_x) / hd->spacing_x, gy = (hd->origin_y - p.y) / hd->spacing_y;
+			if (gx < 0 || gy < 0 || gx >= w - 1 || gy >= h - 1)
+				continue;
+			uint32_t i = (uint32_t)gx, j = (uint32_t)gy;
+			int n = valid[j * w + i] + valid[j * w + i + 1] + valid[(j + 1) * w + i] + valid[(j + 1) * w + i + 1];
+			if (n == 0 && terrain)
+				over_hole++;
+			if (n == 4) {
+				data_pixels++;
+				over_data += terrain;
+			}
+		}
+	print_message("Luxembourg from above: %u terrain pixels over no-data, %u of %u data pixels drawn\n", over_hole,
+	              over_data, data_pixels);
+	assert_int_equal(over_hole, 0);
+	assert_true(data_pixels > 1000 && over_data == data_pixels);
+	free(depth);
+	free(finest);
+	free(valid);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_roll_turns_picture),
+		cmocka_unit_test(test_shading_keeps_detail),
+		cmocka_unit_test(test_block_cull_keeps_picture),
+		cmocka_unit_test(test_surface_height_bound),
+		cmocka_unit_test(test_face_cull_keeps_picture),
+		cmocka_unit_test(test_old_version_renders),
+		cmocka_unit_test(test_nodata_hidden),
+	};
+	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
+}

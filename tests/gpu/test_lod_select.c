@@ -1,0 +1,527 @@
+/* Compute LOD, the selection: the GPU equals the CPU reference (common/lod.c) on the same
+ * camera over poses that stress it (grazing, inside the terrain, far away, looking at a
+ * patch corner); requests look ahead; several views share one cache; a tight cache settles;
+ * a frozen level of detail seen from elsewhere; view checks and axes. Validation layer on,
+ * zero messages. */
+#include <assert.h>
+#include <errno.h>
+#include <math.h>
+#include <stdbool.h>
+#include <string.h>
+
+#include "gpu_test.h"
+#include "lod_scene.h"
+
+#define vk gpu_test_vk
+
+static void test_view_check(void **state)
+{
+	struct relief_view good = {
+		.eye = { 0, 0, 100 }, .target = { 10, 0, 0 }, .fovy = 1, .width = 10, .height = 10, .znear = 1,
+		.zfar = 100, .tau = 1,
+	};
+	const char *why;
+	assert_int_equal(relief_view_check(&good, &why), 0);
+	struct relief_view v = good;
+	v.eye.x = NAN;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.width = 0;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.target = v.eye;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	assert_non_null(strstr(why, "look point"));
+	v = good;
+	v.target = (struct relief_vec3){ 0, 0, 0 }; /* straight down: north at the top */
+	assert_int_equal(relief_view_check(&v, &why), 0);
+	v.roll = NAN;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.tau = 0;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	v = good;
+	v.fovy = M_PI;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+}
+
+static double vec_dot(struct relief_vec3 a, struct relief_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+static void assert_vec_near(struct relief_vec3 a, double x, double y, double z)
+{
+	assert_true(fabs(a.x - x) < 1e-12 && fabs(a.y - y) < 1e-12 && fabs(a.z - z) < 1e-12);
+}
+
+/* relief_view_axes(): orthonormal and right-handed (right x up = -fwd, the camera looking
+ * down its -z) for oblique, near-vertical and vertical views and any roll; the documented
+ * conventions for roll and for straight down / up. */
+static void test_view_axes(void **state)
+{
+	const double dirs[][3] = { { 1, 2, -0.5 }, { 0, 0, -1 }, { 0, 0, 1 }, { 1e-12, 0, -1 }, { 0, 1e-7, -1 },
+	                           { -3, 0.1, 2 }, { 0, 1, 0 } };
+	const double rolls[] = { 0, 0.3, -2, M_PI, 7.5 };
+	for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++)
+		for (size_t k = 0; k < sizeof(rolls) / sizeof(rolls[0]); k++) {
+			struct relief_view v = { .eye = { 500000, 5000000, 100 }, .roll = rolls[k] };
+			v.target = (struct relief_vec3){ v.eye.x + dirs[i][0], v.eye.y + dirs[i][1], v.eye.z + dirs[i][2] };
+			struct relief_vec3 f, r, u;
+			assert_true(relief_view_axes(&v, &f, &r, &u));
+			assert_true(fabs(vec_dot(f, f) - 1) < 1e-12 && fabs(vec_dot(r, r) - 1) < 1e-12 &&
+			            fabs(vec_dot(u, u) - 1) < 1e-12);
+			assert_true(fabs(vec_dot(f, r)) < 1e-12 && fabs(vec_dot(f, u)) < 1e-12 && fabs(vec_dot(r, u)) < 1e-12);
+			struct relief_vec3 ru = relief_vec3_cross(r, u);
+			assert_vec_near(ru, -f.x, -f.y, -f.z);
+		}
+	struct relief_vec3 f, r, u;
+	/* Looking north, level: east on the right, up is up; banked right by 30 degrees, the
+	 * right axis dips and the up axis leans east. */
+	struct relief_view v = { .eye = { 0, 0, 0 }, .target = { 0, 10, 0 } };
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, 1, 0, 0);
+	assert_vec_near(u, 0, 0, 1);
+	v.roll = M_PI / 6;
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, cos(M_PI / 6), 0, -0.5);
+	assert_vec_near(u, 0.5, 0, cos(M_PI / 6));
+	/* Straight down: a map, north up and east right; straight up: north up, east left. */
+	v = (struct relief_view){ .eye = { 0, 0, 100 }, .target = { 0, 0, 0 } };
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, 1, 0, 0);
+	assert_vec_near(u, 0, 1, 0);
+	v.target.z = 200;
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_vec_near(r, -1, 0, 0);
+	assert_vec_near(u, 0, 1, 0);
+	/* Tilted a little towards north (beyond the nadir cone): the same picture as nadir. */
+	v.target = (struct relief_vec3){ 0, 1e-6, 0 };
+	assert_true(relief_view_axes(&v, &f, &r, &u));
+	assert_true(r.x > 1 - 1e-9 && u.y > 1 - 1e-9);
+	v.target = v.eye;
+	assert_false(relief_view_axes(&v, &f, &r, &u));
+	v.target.x = 1;
+	v.roll = INFINITY;
+	assert_false(relief_view_axes(&v, &f, &r, &u));
+}
+
+static void test_gpu_matches_cpu(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, 320, 180);
+	load_everything(&s);
+	const uint32_t n = s.f->hdr.patch_count;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
+	for (uint32_t id = 0; id < n; id++)
+		resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
+	/* Puget Sound spans x, y in [0, 163840] m, heights 0..4380 m. */
+	const struct { double eye[3], at[3], tau; } poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 }, 1.0 },   /* towards Mt Rainier */
+		{ { 81920, 81920, 30000 }, { 81921, 81930, 0 }, 2.0 },       /* nearly straight down on a corner */
+		{ { 5000, 5000, 120 }, { 160000, 150000, 100 }, 0.5 },       /* grazing, low */
+		{ { 128480, 79200, 3000 }, { 130000, 80000, 3000 }, 1.0 },   /* inside the mountain */
+		{ { -900000, 80000, 9000 }, { 80000, 80000, 0 }, 4.0 },      /* far outside */
+		{ { 40960, 40960, 2000 }, { 40960 + 100, 40960 - 100, 1500 }, 8.0 },
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 }, 1.0 },  /* banked right (rolls_deg) */
+		{ { 81920, 81920, 30000 }, { 81920, 81920, 0 }, 1.0 },      /* straight down, rolled */
+	};
+	const double rolls_deg[] = { 0, 0, 0, 0, 0, 0, 35, -120 };
+	static_assert(sizeof(rolls_deg) / sizeof(rolls_deg[0]) == sizeof(poses) / sizeof(poses[0]), "a roll per pose");
+	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+		struct relief_view v = {
+			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
+			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
+			.roll = rolls_deg[p] * M_PI / 180,
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = poses[p].tau,
+		};
+		struct relief_terrain_stats st;
+		/* The GPU view starts with nothing split, like prev[] here. */
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 2 + p, NULL, &st), 0);
+		uint32_t ng = relief_terrain_view_drawn(s.view, gpu, n);
+		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
+		uint32_t k = 0;
+		for (uint32_t id = 0; id < n; id++)
+			if (draw[id])
+				cpu[k++] = id;
+		qsort(gpu, ng, 4, cmp_u32);
+		print_message("pose %zu: GPU %u patches, CPU %u, %u requests\n", p, ng, nc, st.requests);
+		assert_int_equal(ng, nc);
+		assert_memory_equal(gpu, cpu, 4 * nc);
+		assert_int_equal(st.requests, n_want);
+		assert_int_equal(st.patches, ng);
+		/* A new view for the next pose: hysteresis state starts empty again. */
+		relief_terrain_view_destroy(s.view);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	}
+	free(resident); free(prev); free(next); free(draw); free(want); free(gpu); free(cpu);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* Requests look ahead: from a cold cache, the first frame asks for the whole tree the view
+ * draws once everything has arrived, down to the finest level (not one level per frame),
+ * and the GPU's requests equal the CPU reference's, there and with part of the tree
+ * resident. After one flush the next frame is complete. */
+static void test_requests_look_ahead(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, 320, 180);
+	const uint32_t n = s.f->hdr.patch_count, levels = s.f->hdr.levels;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_cpu;
+	const struct { double eye[3], at[3]; } poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },   /* towards Mt Rainier */
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },       /* grazing, low */
+		{ { 150000, 20000, 2500 }, { 140000, 40000, 1000 } },   /* elsewhere: part of the tree there */
+	};
+	uint64_t frame = 1;
+	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+		struct relief_view v = {
+			.eye = { poses[p].eye[0], poses[p].eye[1], poses[p].eye[2] },
+			.target = { poses[p].at[0], poses[p].at[1], poses[p].at[2] },
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 1.0,
+		};
+		uint32_t was_resident = 0;
+		for (uint32_t id = 0; id < n; id++)
+			was_resident += resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
+		struct relief_terrain_stats st;
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, frame++, NULL, &st), 0);
+		uint32_t ng = relief_terrain_view_wants(s.view, gpu, n);
+		relief_lod_select(s.f, &v, resident, prev, next, draw, cpu, n, &n_cpu);
+		qsort(gpu, ng, 4, cmp_u32);
+		uint32_t finest = 0;
+		for (uint32_t k = 0; k < ng; k++) {
+			uint32_t l, px, py;
+			assert_true(relief_patch_coords(&s.f->layout, gpu[k], &l, &px, &py));
+			finest = l > finest ? l : finest;
+		}
+		print_message("pose %zu, %u patches resident: GPU asks for %u (finest level %u of %u), CPU for %u\n", p,
+		              was_resident, ng, finest, levels - 1, n_cpu);
+		assert_int_equal(ng, n_cpu);
+		assert_memory_equal(gpu, cpu, 4 * ng);
+		assert_true(ng > 0 && finest == levels - 1);
+		/* Everything asked for arrives; the next frame draws the whole tree. */
+		assert_int_equal(relief_patch_cache_flush(s.cache, frame), 0);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, frame++, NULL, &st), 0);
+		assert_int_equal(st.requests, 0);
+		/* The next pose starts from what this one left resident, with a fresh view. */
+		relief_terrain_view_destroy(s.view);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+	}
+	free(resident); free(prev); free(next); free(draw); free(gpu); free(cpu);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* Marks in need[] the layers the scene's view needs for what it drew last frame: each drawn
+ * patch, its ancestors, and every non-empty child of each ancestor (a split requests all
+ * four children, drawn or culled). Returns how many patches need[] marks. */
+static uint32_t mark_needed(const struct scene *s, uint8_t *need)
+{
+	const struct relief_file *f = s->f;
+	const uint32_t n = f->hdr.patch_count;
+	uint32_t *ids = malloc(4 * n), drawn = relief_terrain_view_drawn(s->view, ids, n), count = 0;
+	for (uint32_t k = 0; k < drawn; k++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&f->layout, ids[k], &l, &px, &py));
+		need[ids[k]] = 1;
+		while (l > 0) {
+			l--, px /= 2, py /= 2;
+			need[relief_patch_id(l, px, py)] = 1;
+			for (uint32_t c4 = 0; c4 < 4; c4++) {
+				uint32_t c = relief_patch_id(l + 1, 2 * px + (c4 & 1), 2 * py + (c4 >> 1));
+				struct relief_patch_record r;
+				relief_file_record(f, c, &r);
+				if (!(r.flags & RELIEF_PATCH_EMPTY))
+					need[c] = 1;
+			}
+		}
+	}
+	for (uint32_t id = 0; id < n; id++)
+		count += need[id];
+	free(ids);
+	return count;
+}
+
+/* Draws views[0..n) once each per tick, all with the tick's frame number, until a tick in
+ * which none asks for a patch; the last depth image of each view goes to depth[i]. */
+static void draw_ticks(struct scene *s, struct relief_terrain_view **tv, const struct relief_view *views, size_t n,
+                       float **depth, uint64_t *frame)
+{
+	for (int tick = 0; tick < 60; tick++, (*frame)++) {
+		uint32_t asked = 0;
+		for (size_t i = 0; i < n; i++) {
+			struct relief_terrain_stats st;
+			assert_int_equal(relief_patch_cache_update(s->cache, *frame) >= 0, 1);
+			assert_int_equal(relief_terrain_draw(s->terrain, tv[i], &views[i], &s->target, *frame, NULL, &st), 0);
+			asked += st.requests;
+			if (depth)
+				memcpy(depth[i], s->target.depth_readback.map, sizeof(float) * BW * BH);
+		}
+		if (!asked)
+			return;
+		/* -ENOSPC: some patches wait for layers that become free in a later tick. */
+		int ret = relief_patch_cache_flush(s->cache, *frame);
+		assert_true(ret == 0 || ret == -ENOSPC);
+	}
+	fail_msg("the views still ask for patches after 60 ticks");
+}
+
+/* Two views share one cache (the daemon's case: several clients, one terrain cache). Drawn
+ * alternately until neither asks for more, each frame equals bit for bit what the view
+ * draws alone in a cache of its own. Also when the cache has only 2 layers more than the
+ * two views need together and a third view, elsewhere, filled it first: the third view's
+ * patches are evicted to make room, never a patch either view drew in the last tick. */
+static void test_views_share_cache(void **state)
+{
+	const struct pose poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },  /* towards Mt Rainier */
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing from the south-west */
+		{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },       /* the north-west corner: fills */
+	};
+	struct relief_view views[3];
+	for (int i = 0; i < 3; i++) {
+		views[i] = pose_view(&poses[i]);
+		views[i].tau = i == 1 ? 2.0 : 1.0;
+	}
+	views[1].roll = 20 * M_PI / 180;
+	float *alone[2], *shared[2];
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	uint8_t *need = calloc(s.f->hdr.patch_count, 1);
+	uint32_t needed = 0;
+	uint64_t frame = 1;
+	for (int i = 0; i < 2; i++) {
+		alone[i] = malloc(sizeof(float) * BW * BH);
+		shared[i] = malloc(sizeof(float) * BW * BH);
+		if (i) { /* a fresh cache and view for the second */
+			scene_close(&s);
+			scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+		}
+		draw_ticks(&s, &s.view, &views[i], 1, &alone[i], &frame);
+		needed = mark_needed(&s, need);
+	}
+	scene_close(&s);
+	for (int tight = 0; tight < 2; tight++) {
+		scene_open_at(&s, vk, DEM_PUGET, 1.0, BW, BH, 0, 0, tight ? needed + 2 : 0);
+		struct relief_terrain_view *tv[3] = { s.view };
+		for (int i = 1; i < 3; i++)
+			assert_int_equal(relief_terrain_view_create(s.terrain, &tv[i]), 0);
+		if (tight)
+			draw_ticks(&s, &tv[2], &views[2], 1, NULL, &frame);
+		draw_ticks(&s, tv, views, 2, shared, &frame);
+		struct relief_patch_cache_stats cs;
+		relief_patch_cache_stats(s.cache, &cs);
+		uint32_t differ[2];
+		for (int i = 0; i < 2; i++)
+			differ[i] = (uint32_t)(memcmp(alone[i], shared[i], sizeof(float) * BW * BH) != 0);
+		print_message("%s cache (%u layers, the two views need %u): %llu evicted, frames %s / %s\n",
+		              tight ? "tight" : "roomy", cs.layers, needed, (unsigned long long)cs.evicted,
+		              differ[0] ? "differ" : "equal", differ[1] ? "differ" : "equal");
+		assert_int_equal(differ[0] + differ[1], 0);
+		if (tight)
+			assert_true(cs.layers == needed + 2 && cs.evicted > 0);
+		relief_terrain_view_destroy(tv[1]);
+		relief_terrain_view_destroy(tv[2]);
+		scene_close(&s);
+	}
+	for (int i = 0; i < 2; i++) {
+		free(alone[i]);
+		free(shared[i]);
+	}
+	free(need);
+	gpu_test_assert_clean(vk);
+}
+
+/* The number of finest-level patches view tv drew in its last frame. */
+static uint32_t finest_drawn(const struct scene *s, const struct relief_terrain_view *tv)
+{
+	uint32_t *ids = malloc(4 * s->f->hdr.patch_count), n, counts[RELIEF_MAX_LEVELS] = { 0 };
+	view_levels(s, tv, ids, &n, counts);
+	free(ids);
+	return counts[s->f->hdr.levels - 1];
+}
+
+/* A shared cache short of layers serves the nearest detail of every view, not the first
+ * comer's (patch_cache.h): a view from high above the terrain's west edge fills a cache
+ * that holds exactly what it wants, then a low view by Mt Rainier shares it. The low view's
+ * nearest patches take the layers of the high view's farthest, the two settle (nothing
+ * decoded or evicted in the last 20 of 80 ticks, so no patch is taken back and forth), and
+ * both still draw. Negative control, run by hand with the eviction of the least recently
+ * used only (as before): the low view never draws a finest-level patch, and keeps asking. */
+static void test_near_detail_takes_layers(void **state)
+{
+	const struct pose poses[] = {
+		{ { -30000, 80000, 25000 }, { 80000, 80000, 0 } },    /* high above the west edge */
+		{ { 125000, 76000, 3200 }, { 128480, 79200, 4000 } }, /* low, by Mt Rainier */
+	};
+	struct relief_view views[2] = { pose_view(&poses[0]), pose_view(&poses[1]) };
+	views[0].tau = views[1].tau = 1.0;
+	struct scene s;
+	uint64_t frame = 1;
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	draw_ticks(&s, &s.view, &views[1], 1, NULL, &frame);
+	const uint32_t finest_alone = finest_drawn(&s, s.view);
+	scene_close(&s);
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	uint8_t *need = calloc(s.f->hdr.patch_count, 1);
+	draw_ticks(&s, &s.view, &views[0], 1, NULL, &frame);
+	const uint32_t needed = mark_needed(&s, need);
+	scene_close(&s);
+
+	scene_open_at(&s, vk, DEM_PUGET, 1.0, BW, BH, 0, 0, needed);
+	struct relief_terrain_view *tv[2] = { s.view };
+	assert_int_equal(relief_terrain_view_create(s.terrain, &tv[1]), 0);
+	draw_ticks(&s, &tv[0], &views[0], 1, NULL, &frame); /* fills the cache exactly */
+	struct relief_patch_cache_stats cs;
+	uint64_t at60[2] = { 0 };
+	struct relief_terrain_stats st[2];
+	for (int tick = 1; tick <= 80; tick++, frame++) {
+		int ret = relief_patch_cache_flush(s.cache, frame);
+		assert_true(ret == 0 || ret == -ENOSPC);
+		for (int i = 0; i < 2; i++)
+			assert_int_equal(relief_terrain_draw(s.terrain, tv[i], &views[i], &s.target, frame, NULL, &st[i]), 0);
+		if (tick == 60) {
+			relief_patch_cache_stats(s.cache, &cs);
+			at60[0] = cs.decoded;
+			at60[1] = cs.evicted;
+		}
+	}
+	relief_patch_cache_stats(s.cache, &cs);
+	const uint32_t finest = finest_drawn(&s, tv[1]);
+	print_message("%u layers, all the high view's: the low view draws %u finest patches (%u alone), %u patches; the high "
+	              "view %u; %llu decoded, %llu evicted (%llu, %llu after 60 ticks)\n", cs.layers, finest, finest_alone,
+	              st[1].patches, st[0].patches, (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
+	              (unsigned long long)at60[0], (unsigned long long)at60[1]);
+	assert_true(finest_alone > 0 && finest > 0);
+	assert_true(cs.evicted > 0 && st[0].patches > 0 && st[1].patches > 0);
+	assert_true(cs.decoded == at60[0] && cs.evicted == at60[1]);
+	relief_terrain_view_destroy(tv[1]);
+	free(need);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* A cache with half the layers a still view wants: it fills, a request more than twice as
+ * near as a resident patch's takes its layer (once here), and then it stays as it is. Every
+ * frame still asks for the rest and draws the resident parents in their place, but nothing
+ * is decoded or evicted after the first 10 frames: a wanted patch counts as in use even
+ * while it cannot be drawn (its siblings missing), so patches are not evicted for their
+ * siblings and those again for them, frame after frame. (Negative control, run by hand:
+ * with only drawn patches marked in use, as before, the 60 frames decoded 167 patches into
+ * these 16 layers, evicted 151, and the last frame drew the root alone.) */
+static void test_tight_cache_settles(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	const struct pose pose = { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } };
+	struct relief_view v = pose_view(&pose);
+	v.tau = 1;
+	float *depth = malloc(sizeof(float) * BW * BH);
+	uint64_t frame = 1;
+	draw_ticks(&s, &s.view, &v, 1, &depth, &frame);
+	uint8_t *need = calloc(s.f->hdr.patch_count, 1);
+	uint32_t needed = mark_needed(&s, need);
+	scene_close(&s);
+
+	scene_open_at(&s, vk, DEM_PUGET, 1.0, BW, BH, 0, 0, needed / 2);
+	uint64_t decoded[7] = { 0 }, evicted = 0;
+	struct relief_terrain_stats st = { 0 };
+	for (int f = 1; f <= 60; f++) {
+		int ret = relief_patch_cache_flush(s.cache, (uint64_t)f);
+		assert_true(ret == 0 || ret == -ENOSPC);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, (uint64_t)f, NULL, &st), 0);
+		if (f % 10 == 0) {
+			struct relief_patch_cache_stats cs;
+			relief_patch_cache_stats(s.cache, &cs);
+			decoded[f / 10] = cs.decoded;
+			evicted = cs.evicted;
+		}
+	}
+	print_message("%u layers for a view that wants %u: decoded after 10, 20, .. 60 frames: %llu %llu %llu %llu %llu "
+	              "%llu, %llu evicted, %u requests in the last frame, %u patches drawn\n", needed / 2, needed,
+	              (unsigned long long)decoded[1], (unsigned long long)decoded[2], (unsigned long long)decoded[3],
+	              (unsigned long long)decoded[4], (unsigned long long)decoded[5], (unsigned long long)decoded[6],
+	              (unsigned long long)evicted, st.requests, st.patches);
+	assert_true(st.requests > 0 && st.patches > 0);
+	/* Full after 10 frames, every later decode in place of a farther patch, none after. */
+	assert_true(decoded[1] == needed / 2 + evicted && decoded[6] == decoded[1]);
+	assert_true(evicted < needed / 4);
+	free(depth);
+	free(need);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* A frozen level of detail (relief_draw_options.lod_view): drawn from its own camera it is
+ * the normal frame bit for bit; drawn from a camera 60 m further along the flight it keeps
+ * exactly that frame's patches and tessellation (the same primitive count) and stays
+ * watertight against a full-resolution render of the new camera, while a normal frame there
+ * does tessellate differently. */
+static void test_frozen_lod(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	struct scene s = b.s;
+	const struct pose pose = { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } };
+	struct relief_view v = pose_view(&pose), moved = v;
+	const double step[3] = { 40, 40, -20 }; /* 60 m towards the summit */
+	moved.eye.x += step[0], moved.eye.y += step[1], moved.eye.z += step[2];
+	moved.target.x += step[0], moved.target.y += step[1], moved.target.z += step[2];
+	float *frozen = malloc(sizeof(float) * BW * BH);
+	uint32_t *ids = malloc(4 * s.f->hdr.patch_count), *ids_frozen = malloc(4 * s.f->hdr.patch_count);
+	struct relief_terrain_stats st, st_moved, st_frozen;
+	render(&s, &moved, b.ref, &st); /* full resolution (tau 0.001), the new camera */
+	v.tau = moved.tau = 2.0;
+	render(&s, &moved, b.lod, &st_moved);
+	render(&s, &v, b.lod, &st);
+	uint32_t n, n_frozen;
+	drawn_levels(&s, ids, &n);
+	/* Its own camera: the same frame. */
+	const struct relief_draw_options self = { .lod_view = &v };
+	render_with(&s, &v, &self, frozen, &st_frozen);
+	assert_memory_equal(frozen, b.lod, sizeof(float) * BW * BH);
+	assert_int_equal(st_frozen.triangles, st.triangles);
+	/* From the moved camera. */
+	const struct relief_draw_options from_v = { .lod_view = &v };
+	render_with(&s, &moved, &from_v, frozen, &st_frozen);
+	drawn_levels(&s, ids_frozen, &n_frozen);
+	qsort(ids, n, 4, cmp_u32);
+	qsort(ids_frozen, n_frozen, 4, cmp_u32);
+	assert_int_equal(n_frozen, n);
+	assert_memory_equal(ids_frozen, ids, 4 * n);
+	print_message("frozen LOD: %llu primitives (its own frame %llu, a normal frame at the moved camera %llu)\n",
+	              (unsigned long long)st_frozen.triangles, (unsigned long long)st.triangles,
+	              (unsigned long long)st_moved.triangles);
+	assert_true(st.triangles > 0);
+	assert_int_equal(st_frozen.triangles, st.triangles);
+	assert_true(st_moved.triangles != st.triangles);
+	struct comparison c = compare(&s, &moved, b.ref, frozen, b.finest, b.fw, b.fh);
+	print_message("frozen LOD from the moved camera: %u holes, max vertical error %.3f px over %u pixels\n",
+	              c.holes, c.worst_px, c.both);
+	assert_int_equal(c.holes, 0);
+	assert_true(c.both > BW * BH / 8);
+	/* A different viewport size is refused. */
+	struct relief_view small = v;
+	small.width = BW / 2;
+	const struct relief_draw_options bad = { .lod_view = &small };
+	assert_int_equal(relief_terrain_draw(s.terrain, s.view, &moved, &s.target, 200, &bad, &st), -EINVAL);
+	free(frozen);
+	free(ids);
+	free(ids_frozen);
+	bound_close(&b);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_view_check),
+		cmocka_unit_test(test_view_axes),
+		cmocka_unit_test(test_gpu_matches_cpu),
+		cmocka_unit_test(test_requests_look_ahead),
+		cmocka_unit_test(test_views_share_cache),
+		cmocka_unit_test(test_near_detail_takes_layers),
+		cmocka_unit_test(test_tight_cache_settles),
+		cmocka_unit_test(test_frozen_lod),
+	};
+	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
+}
