@@ -217,7 +217,7 @@ int bench_codec(int argc, char **argv)
 	struct dem_import_options cli = { 0 };
 	struct ctx c = { .runs = 3 };
 	double tols[16] = { 0.1, 0.25, 0.5, 1, 2, 4 };
-	size_t ntol = 6;
+	uint32_t ntol = 6;
 	int ch;
 	opterr = 0;
 	while ((ch = getopt_long(argc, argv, ":h", opts, NULL)) != -1) {
@@ -227,21 +227,10 @@ int bench_codec(int argc, char **argv)
 			if (!cli_parse_u32("bench codec", "--runs", optarg, 1, 15, &c.runs))
 				return EXIT_USAGE;
 			break;
-		case 'T': {
-			ntol = 0;
-			char buf[256];
-			snprintf(buf, sizeof(buf), "%s", optarg);
-			char *save = NULL;
-			for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
-				if (ntol == 16 || !cli_parse_double("bench codec", "--tolerances", t, &tols[ntol]) ||
-				    !(tols[ntol] >= 1e-4 && tols[ntol] <= 1e4)) {
-					fprintf(stderr, "relief bench codec: --tolerances: up to 16 values in [0.0001, 10000] m\n");
-					return EXIT_USAGE;
-				}
-				ntol++;
-			}
+		case 'T':
+			if (!cli_parse_list("bench codec", "--tolerances", optarg, 1e-4, 1e4, tols, 16, &ntol))
+				return EXIT_USAGE;
 			break;
-		}
 		case 'h':
 			printf("usage: relief bench codec FILE... [--json] [--runs N] [--tolerances a,b,...]\n"
 			       "For each file and tolerance (default 0.1,0.25,0.5,1,2,4 m): relief's size, ratio over\n"

@@ -117,22 +117,6 @@ struct run {
 	float *ref_depth;
 };
 
-static double parse_list(const char *s, double *out, int cap, int *n)
-{
-	char buf[256];
-	snprintf(buf, sizeof(buf), "%s", s);
-	*n = 0;
-	char *save = NULL;
-	for (char *t = strtok_r(buf, ",", &save); t && *n < cap; t = strtok_r(NULL, ",", &save)) {
-		char *end;
-		out[*n] = strtod(t, &end);
-		if (*end || !(out[*n] > 0) || !isfinite(out[*n]))
-			return -1;
-		(*n)++;
-	}
-	return *n > 0 ? 0 : -1;
-}
-
 /* Errors of one rendered frame (depth in the target) against the finest surface: signed
  * per-pixel error in `err` (NaN where there is no terrain or the reference is noise), and
  * the statistics accumulated into `a` and `res`; with a == NULL only `err` is written.
@@ -434,7 +418,7 @@ int bench_lod(int argc, char **argv)
 	bool json = false, unculled = false, morphed = false, recheck_all = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
-	int ntau = 5, ntarget = 5;
+	uint32_t ntau = 5, ntarget = 5;
 	const char *device = NULL;
 	int ch;
 	opterr = 0;
@@ -455,11 +439,9 @@ int bench_lod(int argc, char **argv)
 			break;
 		case 'T':
 		case 'P':
-			if (parse_list(optarg, ch == 'T' ? taus : targets, 8, ch == 'T' ? &ntau : &ntarget) < 0) {
-				fprintf(stderr, "relief bench lod: %s: up to 8 positive numbers, comma-separated\n",
-				        ch == 'T' ? "--taus" : "--targets");
+			if (!cli_parse_list("bench lod", ch == 'T' ? "--taus" : "--targets", optarg, 1e-3, 1e3,
+			                    ch == 'T' ? taus : targets, 8, ch == 'T' ? &ntau : &ntarget))
 				return EXIT_USAGE;
-			}
 			break;
 		case 'd': device = optarg; break;
 		case 'U': unculled = true; break;
@@ -537,20 +519,20 @@ int bench_lod(int argc, char **argv)
 	cfg[n++] = (struct config){
 		.method = "full-grid", .opts = { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true
 	};
-	for (int i = 0; i < ntau; i++)
+	for (uint32_t i = 0; i < ntau; i++)
 		cfg[n++] = (struct config){
 			.method = "relief", .param = taus[i], .opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }
 		};
-	for (int i = 0; i < ntarget; i++)
+	for (uint32_t i = 0; i < ntarget; i++)
 		cfg[n++] = (struct config){
 			.method = "distance", .param = targets[i],
 			.opts = { .fine = RELIEF_FINE_DISTANCE, .target_px = (float)targets[i], .select_tau = 1e-4 }
 		};
-	for (int i = 0; i < ntau; i++)
+	for (uint32_t i = 0; i < ntau; i++)
 		cfg[n++] = (struct config){
 			.method = "chunked", .param = taus[i], .opts = { .fine = RELIEF_FINE_FULL, .select_tau = taus[i] }
 		};
-	for (int i = 0; i < ntau && unculled; i++) {
+	for (uint32_t i = 0; i < ntau && unculled; i++) {
 		cfg[n++] = (struct config){
 			.method = "relief-unculled", .param = taus[i],
 			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i], .no_block_cull = true }
@@ -560,7 +542,7 @@ int bench_lod(int argc, char **argv)
 			.opts = { .fine = RELIEF_FINE_FULL, .select_tau = taus[i], .no_block_cull = true }
 		};
 	}
-	for (int i = 0; i < ntau && morphed; i++)
+	for (uint32_t i = 0; i < ntau && morphed; i++)
 		cfg[n++] = (struct config){
 			.method = "relief-morphed", .param = taus[i],
 			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, .morph = true

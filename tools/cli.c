@@ -1,4 +1,5 @@
 #include <errno.h>
+#include <float.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -29,50 +30,85 @@ bool cli_parse_double(const char *cmd, const char *opt, const char *s, double *o
 	return true;
 }
 
+/* One whole number of [min, max] in s[0, len): digits only (no sign, no space). */
+static bool parse_u32_span(const char *s, size_t len, uint32_t min, uint32_t max, uint32_t *out)
+{
+	if (len == 0 || len > 10)
+		return false;
+	uint64_t v = 0;
+	for (size_t i = 0; i < len; i++) {
+		if (s[i] < '0' || s[i] > '9')
+			return false;
+		v = v * 10 + (uint64_t)(s[i] - '0');
+	}
+	if (v < min || v > max)
+		return false;
+	*out = (uint32_t)v;
+	return true;
+}
+
 bool cli_parse_u32(const char *cmd, const char *opt, const char *s, uint32_t min, uint32_t max, uint32_t *out)
 {
-	char *end;
-	errno = 0;
-	unsigned long long v = strtoull(s, &end, 10);
-	if (errno || end == s || *end || s[0] == '-' || v < min || v > max) {
+	if (!parse_u32_span(s, strlen(s), min, max, out)) {
 		fprintf(stderr, "relief %s: %s: '%s' is not a whole number in [%u, %u]\n", cmd, opt, s, min, max);
 		return false;
 	}
-	*out = (uint32_t)v;
 	return true;
 }
 
 bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h)
 {
-	unsigned a, b;
-	char tail;
-	if (sscanf(s, "%ux%u%c", &a, &b, &tail) != 2 || a < 1 || b < 1 || a > 16384 || b > 16384) {
+	const char *x = strchr(s, 'x');
+	if (!x || !parse_u32_span(s, (size_t)(x - s), 1, 16384, w) ||
+	    !parse_u32_span(x + 1, strlen(x + 1), 1, 16384, h)) {
 		fprintf(stderr, "relief %s: %s: '%s' is not WIDTHxHEIGHT with both in [1, 16384]\n", cmd, opt, s);
 		return false;
 	}
-	*w = a;
-	*h = b;
 	return true;
+}
+
+bool cli_parse_list(const char *cmd, const char *opt, const char *s, double min, double max, double *out,
+                    uint32_t cap, uint32_t *n)
+{
+	*n = 0;
+	for (const char *p = s;; p++) {
+		const char *comma = strchr(p, ',');
+		size_t len = comma ? (size_t)(comma - p) : strlen(p);
+		char tok[64];
+		if (len == 0) {
+			fprintf(stderr, "relief %s: %s: '%s': value %u is empty\n", cmd, opt, s, *n + 1);
+			return false;
+		}
+		if (*n == cap) {
+			fprintf(stderr, "relief %s: %s: '%s' has more than %u values\n", cmd, opt, s, cap);
+			return false;
+		}
+		if (len >= sizeof(tok)) {
+			fprintf(stderr, "relief %s: %s: '%s': value %u is too long for a number\n", cmd, opt, s, *n + 1);
+			return false;
+		}
+		memcpy(tok, p, len);
+		tok[len] = '\0';
+		if (!cli_parse_double(cmd, opt, tok, &out[*n]))
+			return false;
+		if (!(out[*n] >= min && out[*n] <= max)) {
+			fprintf(stderr, "relief %s: %s: %s is outside [%g, %g]\n", cmd, opt, tok, min, max);
+			return false;
+		}
+		(*n)++;
+		if (!comma)
+			return true;
+		p = comma;
+	}
 }
 
 bool cli_parse_vec3(const char *cmd, const char *opt, const char *s, double out[3])
 {
-	char buf[256];
-	if (strlen(s) >= sizeof(buf)) {
-		fprintf(stderr, "relief %s: %s: argument too long\n", cmd, opt);
+	uint32_t n;
+	if (!cli_parse_list(cmd, opt, s, -DBL_MAX, DBL_MAX, out, 3, &n))
 		return false;
-	}
-	strcpy(buf, s);
-	char *save = NULL, *tok = strtok_r(buf, ",", &save);
-	for (int i = 0; i < 3; i++, tok = strtok_r(NULL, ",", &save)) {
-		if (!tok || !cli_parse_double(cmd, opt, tok, &out[i])) {
-			if (!tok)
-				fprintf(stderr, "relief %s: %s: '%s' is not X,Y,Z\n", cmd, opt, s);
-			return false;
-		}
-	}
-	if (tok) {
-		fprintf(stderr, "relief %s: %s: '%s' has more than three numbers\n", cmd, opt, s);
+	if (n != 3) {
+		fprintf(stderr, "relief %s: %s: '%s' is not X,Y,Z\n", cmd, opt, s);
 		return false;
 	}
 	return true;

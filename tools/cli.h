@@ -21,11 +21,18 @@ struct relief_command {
 extern struct relief_logger cli_log;
 void cli_log_set_level(enum relief_log_level level);
 
-/* Argument parsers: return false (after printing "relief CMD: OPTION: why") on bad input. */
+/* Argument parsers: return false (after printing "relief CMD: OPTION: why") on bad input.
+ * Whole numbers and sizes are plain digits: no sign, no spaces, no leading "+". */
 bool cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
 bool cli_parse_u32(const char *cmd, const char *opt, const char *s, uint32_t min, uint32_t max, uint32_t *out);
 bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h);
 bool cli_parse_vec3(const char *cmd, const char *opt, const char *s, double out[3]);
+/* Comma-separated finite numbers, each in [min, max]: 1 to cap of them into out[], *n the
+ * count. Refused: an empty value (no two commas in a row, none at either end), more than
+ * cap values, anything cli_parse_double() refuses. After a refusal out[] and *n are
+ * unspecified. */
+bool cli_parse_list(const char *cmd, const char *opt, const char *s, double min, double max, double *out,
+                    uint32_t cap, uint32_t *n);
 /* The usage error for getopt_long's ':' (missing value) or '?' (unknown option) return,
  * run with opterr = 0 and an optstring starting with ':'. Prints it and returns EXIT_USAGE. */
 int cli_option_error(const char *cmd, int c, char **argv);

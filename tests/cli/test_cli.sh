@@ -172,6 +172,17 @@ expect_text fly-bad-channels-named "--channels"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
+# A list with an empty field is refused, not read as a shorter list (1,,2,3 once gave 1,2,3).
+check snap-empty-field 2 "$relief" snap "$tmp/ps.relief" --camera 1,,2,3 --look 1,1,0 -o "$tmp/x.png"
+expect_text snap-empty-field-named "--camera: '1,,2,3': value 2 is empty"
+check bench-lod-empty-field 2 "$relief" bench lod "$tmp/ps.relief" --taus 1,2, --frames 1
+expect_text bench-lod-empty-field-named "--taus: '1,2,': value 3 is empty"
+check bench-lod-too-many 2 "$relief" bench lod "$tmp/ps.relief" --targets 1,2,3,4,5,6,7,8,9 --frames 1
+expect_text bench-lod-too-many-named "--targets: '1,2,3,4,5,6,7,8,9' has more than 8 values"
+check bench-codec-out-of-range 2 "$relief" bench codec "$data/luxembourg_elev.tif" --tolerances 1,0
+expect_text bench-codec-out-of-range-named "--tolerances: 0 is outside [0.0001, 10000]"
+check hello-signed-size 2 "$relief" hello --size +48x32
+expect_text hello-signed-size-named "--size: '+48x32' is not WIDTHxHEIGHT"
 vkcheck bench-lod 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 2 --size 64x36 --taus 1 --targets 4 --json
 n=$(grep -c '"method":' <<<"$LAST_OUT")
 [ "$n" -eq 4 ] || { echo "FAIL bench lod records: $n"; fails=$((fails + 1)); }

@@ -172,5 +172,13 @@ int main(int argc, char **argv)
 		"0 1 2 3 4 95 6\n1 1e999 nan inf -inf 0x10 1e-320\n",
 	};
 	put_texts(out, "track", "txt", tracks, sizeof(tracks) / sizeof(tracks[0]));
+	/* fuzz_args: a parser's letter, then the argument. */
+	const char *args[] = {
+		"u4", "u0070000", "u70001", "u+5", "u 5", "u-1", "u99999999999", "d1e-3", "dnan", "d1e999",
+		"d0x1p4", "s480x270", "s0x10", "s00048x0032", "s5 x4", "s48x32x", "s99999999999x5",
+		"v100000,50000,5500", "v1,,2,3", "v,1,2,3", "v1,2,3,", "v1,2", "v1,2,3,4", "l0.5,1,2,4",
+		"l1,2,3,4,5", "l-3", "l1e3", "l,", "l", "x1,2,3",
+	};
+	put_texts(out, "args", "txt", args, sizeof(args) / sizeof(args[0]));
 	return 0;
 }
