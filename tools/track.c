@@ -28,12 +28,18 @@ static int parse_line(const char *s, const char *e, size_t line, double v[FIELDS
 	const char *hash = memchr(s, '#', (size_t)(e - s));
 	if (hash)
 		e = hash;
-	int n = 0;
+	/* Spaces and tabs only separate; a comma ends a field, so two commas with nothing
+	 * but blanks between them, or one before the first or after the last number, leave a
+	 * field empty (an error, not a field dropped). */
+	int n = 0, commas = 0;
 	while (s < e) {
 		if (is_separator(*s)) {
+			if (*s == ',' && (n == 0 || ++commas > 1))
+				return fail(err, errlen, "line %zu: field %d is empty (two commas, or one before it)", line, n + 1);
 			s++;
 			continue;
 		}
+		commas = 0;
 		const char *tok = s;
 		while (s < e && !is_separator(*s))
 			s++;
@@ -54,6 +60,8 @@ static int parse_line(const char *s, const char *e, size_t line, double v[FIELDS
 			return fail(err, errlen, "line %zu: %s: '%s' is not a finite number", line, field_names[n], buf);
 		v[n++] = d;
 	}
+	if (commas)
+		return fail(err, errlen, "line %zu: field %d is empty (a comma after the last number)", line, n + 1);
 	if (n != 0 && n != FIELDS)
 		return fail(err, errlen, "line %zu: %d numbers, expected %d (t x y z heading pitch roll)", line, n, FIELDS);
 	*n_out = n;

@@ -5,8 +5,9 @@
  * t in seconds, strictly increasing; x, y, z world metres (the file's coordinates, as in
  * relief snap); heading in degrees clockwise from north (+y) towards east (+x); pitch in
  * degrees up from the horizontal, within [-90, 90]; roll in degrees, an aircraft's right
- * bank (relief_view.roll). Numbers are separated by spaces, tabs or commas; '#' starts a
- * comment; blank lines are skipped. This is the pose record an image generator receives
+ * bank (relief_view.roll). Numbers are separated by spaces, tabs or one comma (with blanks
+ * around it if wanted; an empty comma-separated field is an error); '#' starts a comment;
+ * blank lines are skipped. This is the pose record an image generator receives
  * from a flight model, so a recorded flight can be replayed as it is. */
 #pragma once
 

@@ -46,6 +46,12 @@ static void test_parse_errors(void **state)
 	expect_error("# only a comment\n\n", "no keys");
 	expect_error("0 1 2 3 4 5\n", "line 1: 6 numbers, expected 7");
 	expect_error("0 1 2 3 4 5 6 7\n", "line 1: more than 7");
+	/* An empty comma-separated field is an error, not a field dropped: this line once
+	 * read as the key 0 1 2 3 4 5 6. */
+	expect_error("0 1 2 3 4 5 6\n1,1,, 2,3,4,5,6\n", "line 2: field 3 is empty (two commas");
+	expect_error(",0,1,2,3,4,5,6\n", "line 1: field 1 is empty");
+	expect_error("0,1,2,3,4,5,6,\n", "line 1: field 8 is empty (a comma after the last number)");
+	expect_error("0,1,2,3,4,5,6 , # comment\n", "line 1: field 8 is empty");
 	expect_error("0 1 2 3 4 5 6\n1 1 2 x 4 5 6\n", "line 2: z: 'x' is not a number");
 	expect_error("0 1 2 3 4 5 6\n0 1 2 3 4 5 6\n", "line 2: time 0 does not increase");
 	expect_error("0 1 2 3 4 5 6\n# c\n-1 1 2 3 4 5 6\n", "line 3: time -1 does not increase");
