@@ -133,6 +133,9 @@ static int georef(GDALDatasetH ds, const struct dem_import_options *o, struct re
 	double gt[6];
 	bool has_gt = GDALGetGeoTransform(ds, gt) == CE_None &&
 	              !(gt[0] == 0 && gt[1] == 1 && gt[2] == 0 && gt[3] == 0 && gt[4] == 0 && gt[5] == 1);
+	for (int i = 0; i < 6 && has_gt; i++)
+		if (!isfinite(gt[i]))
+			return fail(err, n, "geotransform term %d is %g: not a finite number", i, gt[i]);
 	OGRSpatialReferenceH srs = GDALGetSpatialRef(ds);
 	*flip_rows = false;
 	if (!has_gt) {
@@ -233,6 +236,15 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
 	bool flip = false;
 	if ((ret = georef(ds, o, &d, &flip, err, n)) < 0)
 		goto out;
+	/* Every sample within DEM_MAX_COORD of the origin of its coordinates, so that positions,
+	 * extents and their differences stay finite and precise (docs/format.md). */
+	double far_x = d.origin_x + d.spacing_x * (W - 1), far_y = d.origin_y - d.spacing_y * (H - 1);
+	if (!(fabs(d.origin_x) <= DEM_MAX_COORD && fabs(d.origin_y) <= DEM_MAX_COORD && fabs(far_x) <= DEM_MAX_COORD &&
+	      fabs(far_y) <= DEM_MAX_COORD)) {
+		ret = fail(err, n, "%s: the raster spans x %g .. %g, y %g .. %g m (from its geotransform or --spacing): "
+		           "beyond +-%g m", path, d.origin_x, far_x, far_y, d.origin_y, DEM_MAX_COORD);
+		goto out;
+	}
 
 	GDALRasterBandH band = GDALGetRasterBand(ds, 1);
 	int nb = o->encoding == DEM_ENCODING_TERRAIN_RGB ? 3 : 1;

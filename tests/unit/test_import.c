@@ -310,6 +310,32 @@ static void test_errors_name_the_problem(void **state)
 		valid += d.valid[i];
 	assert_int_equal(valid, 1);
 	relief_dem_finish(&d);
+	o.has_nodata = false;
+	/* A geotransform with a term that is not finite, or one that puts samples beyond
+	 * DEM_MAX_COORD, is refused by name (the first case was imported with a NaN origin). */
+	const struct {
+		double gt[6];
+		const char *why;
+	} bad[] = {
+		{ { NAN, 1, 0, 4, 0, -1 }, "geotransform term 0 is nan" },
+		{ { 0, 1, 0, 4, 0, NAN }, "geotransform term 5 is nan" },
+		/* GeoTIFF stores a tie point and a pixel scale: which term reads back non-finite is
+		 * the driver's business. */
+		{ { 0, INFINITY, 0, 4, 0, -1 }, "not a finite number" },
+		{ { 0, 1, 0, -INFINITY, 0, -1 }, "not a finite number" },
+		{ { 0, 1e300, 0, 4, 0, -1 }, "beyond +-1e+09 m" },
+		{ { -2e9, 1, 0, 4, 0, -1 }, "beyond +-1e+09 m" },
+	};
+	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
+		gdal_write("GTiff", tmp("badgt.tif"), 4, 4, 1, GDT_Int16, v, bad[k].gt, "EPSG:32632", NULL);
+		assert_int_equal(import(tmp("badgt.tif"), &o, &d, err), -EINVAL);
+		if (!strstr(err, bad[k].why))
+			fail_msg("case %zu: '%s' does not say '%s'", k, err, bad[k].why);
+	}
+	o.has_spacing = true; /* and --spacing on an unreferenced raster */
+	o.spacing = 1e300;
+	assert_int_equal(import(test_data("ps_height_1k.png"), &o, &d, err), -EINVAL);
+	assert_non_null(strstr(err, "beyond +-1e+09 m"));
 }
 
 int main(void)
