@@ -206,10 +206,14 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "unknown vertical units code %u", r.source_units);
 	if (r.flags != 0)
 		return bad(err, err_size, "unknown header flags 0x%x", r.flags);
-	if (!finite_in(r.origin_x, -1e9, 1e9) || !finite_in(r.origin_y, -1e9, 1e9))
-		return bad(err, err_size, "origin (%g, %g) is not a finite position within 1e9 m", r.origin_x, r.origin_y);
-	if (!finite_in(r.spacing_x, 1e-6, 1e7) || !finite_in(r.spacing_y, 1e-6, 1e7))
-		return bad(err, err_size, "sample spacing (%g, %g) m outside [1e-6, 1e7]", r.spacing_x, r.spacing_y);
+	if (!finite_in(r.origin_x, -RELIEF_MAX_COORD, RELIEF_MAX_COORD) ||
+	    !finite_in(r.origin_y, -RELIEF_MAX_COORD, RELIEF_MAX_COORD))
+		return bad(err, err_size, "origin (%g, %g) is not a finite position within %g m", r.origin_x, r.origin_y,
+		           RELIEF_MAX_COORD);
+	if (!finite_in(r.spacing_x, RELIEF_SPACING_MIN, RELIEF_SPACING_MAX) ||
+	    !finite_in(r.spacing_y, RELIEF_SPACING_MIN, RELIEF_SPACING_MAX))
+		return bad(err, err_size, "sample spacing (%g, %g) m outside [%g, %g]", r.spacing_x, r.spacing_y,
+		           RELIEF_SPACING_MIN, RELIEF_SPACING_MAX);
 	if (!finite_in(r.height_min, -1e6, 1e6) || !finite_in(r.height_max, r.height_min, 1e6))
 		return bad(err, err_size, "height range [%g, %g] m is not valid", r.height_min, r.height_max);
 	if (r.valid_samples < 1 || r.valid_samples > (uint64_t)r.width * r.height)

@@ -30,6 +30,12 @@
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 #define RELIEF_INDEX_RECORD_SIZE 40u
+/* Georeferencing a file may have (checked on open; the packer and the importer refuse
+ * rasters outside it): |origin| <= RELIEF_MAX_COORD m, spacing in [RELIEF_SPACING_MIN,
+ * RELIEF_SPACING_MAX] m. */
+#define RELIEF_MAX_COORD 1e9
+#define RELIEF_SPACING_MIN 1e-6
+#define RELIEF_SPACING_MAX 1e7
 
 enum relief_patch_flags {
 	RELIEF_PATCH_EMPTY = 1u << 0,  /* no valid sample in its footprint: no stream */

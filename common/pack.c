@@ -359,8 +359,10 @@ static int check_dem(const struct relief_dem *d)
 {
 	if (!d->width || !d->height || !d->heights || !d->valid)
 		return -EINVAL;
-	if (!(d->spacing_x > 0) || !(d->spacing_y > 0) || !isfinite(d->spacing_x) || !isfinite(d->spacing_y) ||
-	    !isfinite(d->origin_x) || !isfinite(d->origin_y))
+	/* What the reader accepts (format.h), so that a packed file always opens. */
+	if (!(d->spacing_x >= RELIEF_SPACING_MIN && d->spacing_x <= RELIEF_SPACING_MAX) ||
+	    !(d->spacing_y >= RELIEF_SPACING_MIN && d->spacing_y <= RELIEF_SPACING_MAX) ||
+	    !(fabs(d->origin_x) <= RELIEF_MAX_COORD) || !(fabs(d->origin_y) <= RELIEF_MAX_COORD))
 		return -EINVAL;
 	return 0;
 }

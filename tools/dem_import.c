@@ -236,13 +236,19 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
 	bool flip = false;
 	if ((ret = georef(ds, o, &d, &flip, err, n)) < 0)
 		goto out;
-	/* Every sample within DEM_MAX_COORD of the origin of its coordinates, so that positions,
-	 * extents and their differences stay finite and precise (docs/format.md). */
+	/* What a .relief file may hold (format.h), for every sample, not only the origin, so
+	 * that positions, extents and their differences stay finite and precise. */
 	double far_x = d.origin_x + d.spacing_x * (W - 1), far_y = d.origin_y - d.spacing_y * (H - 1);
-	if (!(fabs(d.origin_x) <= DEM_MAX_COORD && fabs(d.origin_y) <= DEM_MAX_COORD && fabs(far_x) <= DEM_MAX_COORD &&
-	      fabs(far_y) <= DEM_MAX_COORD)) {
+	if (!(d.spacing_x >= RELIEF_SPACING_MIN && d.spacing_x <= RELIEF_SPACING_MAX &&
+	      d.spacing_y >= RELIEF_SPACING_MIN && d.spacing_y <= RELIEF_SPACING_MAX)) {
+		ret = fail(err, n, "%s: sample spacing %g x %g m (from its geotransform or --spacing): outside [%g, %g] m",
+		           path, d.spacing_x, d.spacing_y, RELIEF_SPACING_MIN, RELIEF_SPACING_MAX);
+		goto out;
+	}
+	if (!(fabs(d.origin_x) <= RELIEF_MAX_COORD && fabs(d.origin_y) <= RELIEF_MAX_COORD &&
+	      fabs(far_x) <= RELIEF_MAX_COORD && fabs(far_y) <= RELIEF_MAX_COORD)) {
 		ret = fail(err, n, "%s: the raster spans x %g .. %g, y %g .. %g m (from its geotransform or --spacing): "
-		           "beyond +-%g m", path, d.origin_x, far_x, far_y, d.origin_y, DEM_MAX_COORD);
+		           "beyond +-%g m", path, d.origin_x, far_x, far_y, d.origin_y, RELIEF_MAX_COORD);
 		goto out;
 	}
 

@@ -33,5 +33,3 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
                size_t err_size);
 /* Mean Earth radius used by the local projection of geographic rasters (IUGG, metres). */
 #define DEM_EARTH_RADIUS 6371008.8
-/* The largest coordinate, in metres, a sample of an imported raster may have. */
-#define DEM_MAX_COORD 1e9

@@ -311,8 +311,9 @@ static void test_errors_name_the_problem(void **state)
 	assert_int_equal(valid, 1);
 	relief_dem_finish(&d);
 	o.has_nodata = false;
-	/* A geotransform with a term that is not finite, or one that puts samples beyond
-	 * DEM_MAX_COORD, is refused by name (the first case was imported with a NaN origin). */
+	/* A geotransform with a term that is not finite, a spacing the format cannot hold, or
+	 * samples beyond RELIEF_MAX_COORD is refused by name (the first case was imported with
+	 * a NaN origin, the 1e-9 m spacing packed into a file the reader refuses). */
 	const struct {
 		double gt[6];
 		const char *why;
@@ -323,8 +324,10 @@ static void test_errors_name_the_problem(void **state)
 		 * the driver's business. */
 		{ { 0, INFINITY, 0, 4, 0, -1 }, "not a finite number" },
 		{ { 0, 1, 0, -INFINITY, 0, -1 }, "not a finite number" },
-		{ { 0, 1e300, 0, 4, 0, -1 }, "beyond +-1e+09 m" },
+		{ { 0, 1e300, 0, 4, 0, -1 }, "sample spacing 1e+300 x 1 m" },
+		{ { 0, 1e-9, 0, 4, 0, -1e-9 }, "outside [1e-06, 1e+07] m" },
 		{ { -2e9, 1, 0, 4, 0, -1 }, "beyond +-1e+09 m" },
+		{ { 999999000, 1e6, 0, 4, 0, -1 }, "beyond +-1e+09 m" }, /* the origin within, the east edge not */
 	};
 	for (size_t k = 0; k < sizeof(bad) / sizeof(bad[0]); k++) {
 		gdal_write("GTiff", tmp("badgt.tif"), 4, 4, 1, GDT_Int16, v, bad[k].gt, "EPSG:32632", NULL);
@@ -334,6 +337,9 @@ static void test_errors_name_the_problem(void **state)
 	}
 	o.has_spacing = true; /* and --spacing on an unreferenced raster */
 	o.spacing = 1e300;
+	assert_int_equal(import(test_data("ps_height_1k.png"), &o, &d, err), -EINVAL);
+	assert_non_null(strstr(err, "outside [1e-06, 1e+07] m"));
+	o.spacing = 2e6; /* 1025 samples of 2,000 km */
 	assert_int_equal(import(test_data("ps_height_1k.png"), &o, &d, err), -EINVAL);
 	assert_non_null(strstr(err, "beyond +-1e+09 m"));
 }
