@@ -24,7 +24,7 @@ int relief_view_check(const struct relief_view *v, const char **why)
 		return -EINVAL;
 	}
 	if (!(v->fovy > 1e-4 && v->fovy < M_PI - 1e-4)) {
-		*why = "the field of view must lie strictly between 0 and 180 degrees";
+		*why = "the field of view must lie between 0.00573 and 179.99427 degrees (1e-4 rad from 0 and 180)";
 		return -EINVAL;
 	}
 	if (!(v->znear > 0 && v->zfar > v->znear)) {

@@ -172,6 +172,8 @@ expect_text fly-bad-channels-named "--channels"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
+vkcheck snap-tiny-fov 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --fov 0.005 -o "$tmp/x.png"
+expect_text snap-tiny-fov-named "between 0.00573 and 179.99427 degrees"
 # A list with an empty field is refused, not read as a shorter list (1,,2,3 once gave 1,2,3).
 check snap-empty-field 2 "$relief" snap "$tmp/ps.relief" --camera 1,,2,3 --look 1,1,0 -o "$tmp/x.png"
 expect_text snap-empty-field-named "--camera: '1,,2,3': value 2 is empty"
