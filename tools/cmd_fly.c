@@ -338,9 +338,15 @@ int cmd_fly(int argc, char **argv)
 		printf("  cache update ms    median %.3f  max %.3f (never waits for a decode)\n", upd_med, upd_max);
 		printf("  GPU ms per frame   median %.2f  p95 %.2f; triangles median %.0f; back faces culled in %u of %u "
 		       "draws (camera above the surface)\n", gpu_med, gpu_p95, tri_med, culled_draws, frames * channels);
-		printf("  detail             %u of %u frames drew a parent for a missing patch; first complete frame %ld "
-		       "(%.0f ms of wall time from the start), last incomplete %ld\n", s.incomplete, frames, first,
-		       s.first_complete_ms, last);
+		printf("  detail             %u of %u frames drew a parent for a missing patch; ", s.incomplete, frames);
+		if (first < 0)
+			printf("no frame complete (the budget or the track's length), ");
+		else
+			printf("first complete frame %ld (%.0f ms of wall time from the start), ", first, s.first_complete_ms);
+		if (last < 0)
+			printf("none incomplete\n");
+		else
+			printf("last incomplete %ld\n", last);
 		printf("  cache              %llu patches decoded, %llu evicted, %llu bad; %u of %u layers used (%u MiB budget, "
 		       "%u worker(s))\n", (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
 		       (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
