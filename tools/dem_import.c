@@ -102,6 +102,17 @@ static GDALDatasetH open_raw(const char *path, const struct dem_import_options *
 	return ds;
 }
 
+/* Whether path starts with the .relief magic (a packed file given where a raster belongs). */
+static bool is_relief_file(const char *path)
+{
+	char magic[sizeof(RELIEF_MAGIC) - 1];
+	FILE *f = fopen(path, "rbe");
+	bool yes = f && fread(magic, 1, sizeof(magic), f) == sizeof(magic) && !memcmp(magic, RELIEF_MAGIC, sizeof(magic));
+	if (f)
+		fclose(f);
+	return yes;
+}
+
 /* Geographic raster: local equirectangular projection centred on the raster (docs). */
 static int georef_geographic(const double gt[6], uint32_t w, uint32_t h, struct relief_dem *d, char *err, size_t n)
 {
@@ -203,7 +214,10 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
 		}
 		ds = GDALOpenEx(path, GDAL_OF_RASTER | GDAL_OF_READONLY, NULL, NULL, NULL);
 		if (!ds) {
-			ret = fail(err, n, "%s: not a raster GDAL can read (%s)", path, CPLGetLastErrorMsg());
+			const char *why = CPLGetLastErrorMsg();
+			if (is_relief_file(path))
+				why = "it is a .relief file: give the elevation raster it was packed from";
+			ret = fail(err, n, "%s: not a raster GDAL can read%s%s%s", path, *why ? " (" : "", why, *why ? ")" : "");
 			goto out;
 		}
 	}

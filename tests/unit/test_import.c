@@ -291,6 +291,9 @@ static void test_errors_name_the_problem(void **state)
 	write_file(tmp("junk.tif"), "not a tiff at all", 17);
 	assert_int_equal(import(tmp("junk.tif"), &o, &d, err), -EINVAL);
 	assert_non_null(strstr(err, "junk.tif"));
+	write_file(tmp("packed.png"), "RELIEF\x1a\n\x04\0\0\0", 12); /* a .relief header's start */
+	assert_int_equal(import(tmp("packed.png"), &o, &d, err), -EINVAL);
+	assert_non_null(strstr(err, "it is a .relief file"));
 	/* All no-data. */
 	int16_t v[4][4];
 	for (int i = 0; i < 16; i++)
