@@ -133,7 +133,7 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	if (size < RELIEF_HEADER_SIZE)
 		return bad(err, err_size, "file too short for a header (%zu bytes, need %u)", size, RELIEF_HEADER_SIZE);
 	if (memcmp(b, RELIEF_MAGIC, 8) != 0)
-		return bad(err, err_size, "not a .relief file (bad magic)");
+		return bad(err, err_size, "not a .relief file (bad magic; `relief pack` makes one from an elevation raster)");
 	struct relief_header r = { 0 };
 	r.version = le_get_u32(b + H_VERSION);
 	if (r.version < RELIEF_FORMAT_VERSION_MIN || r.version > RELIEF_FORMAT_VERSION)

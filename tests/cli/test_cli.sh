@@ -181,6 +181,10 @@ check bench-lod-empty-field 2 "$relief" bench lod "$tmp/ps.relief" --taus 1,2, -
 expect_text bench-lod-empty-field-named "--taus: '1,2,': value 3 is empty"
 check bench-lod-too-many 2 "$relief" bench lod "$tmp/ps.relief" --targets 1,2,3,4,5,6,7,8,9 --frames 1
 expect_text bench-lod-too-many-named "--targets: '1,2,3,4,5,6,7,8,9' has more than 8 values"
+check info-raster 1 "$relief" info "$data/ps_height_1k.png"
+expect_text info-raster-named "not a .relief file (bad magic; \`relief pack\` makes one"
+check pack-relief-input 1 "$relief" pack "$tmp/ps.relief" "$tmp/again.relief" -t 1
+expect_text pack-relief-input-named "it is a .relief file"
 check bench-codec-out-of-range 2 "$relief" bench codec "$data/luxembourg_elev.tif" --tolerances 1,0
 expect_text bench-codec-out-of-range-named "--tolerances: 0 is outside [0.0001, 10000]"
 check hello-signed-size 2 "$relief" hello --size +48x32
