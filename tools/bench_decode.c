@@ -21,6 +21,7 @@
 #include "cli.h"
 #include "decode.h"
 #include "format.h"
+#include "normals.h"
 #include "parallel.h"
 #include "patch_cache.h"
 #include "vk.h"
@@ -47,6 +48,40 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 	relief_patch_cache_stats(c, st);
 	relief_patch_cache_destroy(c);
 	return ret < 0 ? ret : 0;
+}
+
+/* What a CPU decoder would also pay to fill the pool the renderer reads: the packed
+ * normal map (common/normals.c, the shader's twin) of every decoded patch, with its
+ * validity from the patch's mask. The blocks are decoded first, untimed. The block errors
+ * and ranges are stored in the file and copied on either path; uploads are not counted. */
+static int cpu_normals_run(const struct relief_file *f, double *secs)
+{
+	const struct relief_layout *lay = &f->layout;
+	const uint32_t P = lay->geom.P, E = lay->geom.E;
+	uint8_t *mask = malloc((size_t)P * P);
+	uint32_t *out = malloc(sizeof(uint32_t) * P * P);
+	int ret = mask && out ? 0 : -ENOMEM;
+	*secs = 0;
+	for (uint32_t l = 0; l < lay->levels && ret == 0; l++) {
+		int32_t *blocks;
+		if ((ret = relief_decode_level_blocks(f, l, 1, &blocks)) < 0)
+			break;
+		double t = bench_now();
+		for (uint32_t i = 0; i < (1u << (2 * l)) && ret == 0; i++) {
+			uint32_t id = relief_level_first_id(l) + i;
+			struct relief_patch_record r;
+			relief_file_record(f, id, &r);
+			if (r.flags & RELIEF_PATCH_EMPTY)
+				continue;
+			if ((ret = relief_file_mask(f, id, mask)) == 0)
+				relief_normals_pack(f, l, blocks + (size_t)i * E * E, mask, out);
+		}
+		*secs += bench_now() - t;
+		free(blocks);
+	}
+	free(mask);
+	free(out);
+	return ret;
 }
 
 /* Descent latency: the chain from the root to a finest-level patch (the one nearest the
@@ -154,7 +189,7 @@ int bench_decode(int argc, char **argv)
 	const uint32_t P = f->hdr.patch_size;
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
-	double cpu[16], ent[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], worker[16];
+	double cpu[16], ent[16], nrm[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], worker[16];
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_vk *vk = NULL;
@@ -182,7 +217,7 @@ int bench_decode(int argc, char **argv)
 		}
 		ent[i] = bench_now() - t;
 		relief_decoder_finish(&dec);
-		if (ret < 0 || (ret = gpu_run(vk, f, workers, &gpu[i], &st)) < 0)
+		if (ret < 0 || (ret = cpu_normals_run(f, &nrm[i])) < 0 || (ret = gpu_run(vk, f, workers, &gpu[i], &st)) < 0)
 			goto fail;
 		gpu_busy[i] = st.gpu_ns * 1e-9;
 		gpu_dec[i] = st.gpu_decode_ns * 1e-9;
@@ -193,6 +228,7 @@ int bench_decode(int argc, char **argv)
 	if ((ret = descent_run(vk, f, &descent)) < 0)
 		goto fail;
 	double c = bench_median(cpu, runs), e = bench_median(ent, runs), g = bench_median(gpu, runs);
+	double cn = bench_median(nrm, runs);
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
 	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
@@ -201,12 +237,14 @@ int bench_decode(int argc, char **argv)
 		cli_json_string(stdout, base);
 		printf(",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
-		       "\"gpu_wall_ms\":%.2f,\"gpu_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
+		       "\"gpu_wall_ms\":%.4f,\"gpu_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
 		       "\"gpu_normals_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
-		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u",
+		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u,"
+		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"ratio_same_outputs\":%.3f",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, gd * 1e3, gn * 1e3,
-		       w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs);
+		       w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
+		       (c + cn) / g);
 		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
@@ -220,6 +258,8 @@ int bench_decode(int argc, char **argv)
 		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches (decode pass %.2f ms, normals pass "
 		       "%.2f ms); worker entropy %.2f ms\n",
 		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, w * 1e3);
+		printf("  CPU normals (1 thread)       %8.2f ms  (the shader's twin; with the reference: %.2f ms, "
+		       "ratio GPU/CPU at equal outputs %.2f)\n", cn * 1e3, (c + cn) * 1e3, (c + cn) / g);
 		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors and ranges)\n",
 		       (unsigned long long)st.bytes_per_layer);
 		printf("  descent: root to finest patch (%u levels) resident after %u updates\n", f->hdr.levels, descent);

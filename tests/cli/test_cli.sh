@@ -119,6 +119,13 @@ expect_text bench-decode-ratio '"ratio_gpu_over_cpu":'
 expect_text bench-decode-descent '"descent_updates":2,"levels":2,'
 expect_text bench-decode-device '"device":"'
 expect_text bench-decode-cpu '","cpu":"'
+expect_text bench-decode-same-outputs '"cpu_normals_ms":'
+# the equal-output ratio is (reference + normals) / GPU path, from the printed fields
+field() { sed -n "s/.*\"$1\":\([-0-9.e]*\).*/\1/p" <<<"$LAST_OUT"; }
+if ! awk -v c="$(field cpu_ref_ms)" -v n="$(field cpu_normals_ms)" -v g="$(field gpu_wall_ms)" \
+	-v r="$(field ratio_same_outputs)" 'BEGIN { w = (c + n) / g; d = r - w; exit !(n > 0 && (d < 0 ? -d : d) <= 0.01 * w + 0.002) }'; then
+	echo "FAIL bench-decode-same-outputs-ratio: $LAST_OUT"; fails=$((fails + 1))
+fi
 # relief snap: a real frame, its depth file, and refused cameras
 vkcheck snap 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/snap.png" --depth "$tmp/snap.f32" --wire
 expect_text snap-summary "patches in"

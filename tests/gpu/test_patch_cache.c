@@ -13,6 +13,7 @@
 #include "format.h"
 #include "gpu_test.h"
 #include "pack.h"
+#include "normals.h"
 #include "patch_cache.h"
 
 #define vk gpu_test_vk
@@ -91,6 +92,8 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	float *gpu_e = malloc(sizeof(float) * nb), *cpu_e = malloc(sizeof(float) * nb);
 	uint32_t checked = 0;
 	double worst_normal = 0;
+	int twin_steps = 0;      /* largest difference between the CPU twin and the GPU, snorm8 steps */
+	uint64_t twin_same = 0; /* components where they agree */
 	for (uint32_t l = 0; l < lay->levels; l++) {
 		int32_t *blocks;
 		assert_int_equal(relief_decode_level_blocks(f, l, 1, &blocks), 0);
@@ -132,6 +135,16 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 			assert_int_equal(relief_file_mask(f, id, mask), 0);
 			for (size_t k = 0; k < (size_t)P * P; k++)
 				assert_int_equal(gpu_n[k * 4 + 3], mask[k] ? 127 : -127); /* validity in w */
+			/* The CPU twin (common/normals.c) within one snorm8 step of the shader. */
+			uint32_t *twin = malloc(sizeof(uint32_t) * P * P);
+			relief_normals_pack(f, l, cpu, mask, twin);
+			for (size_t k = 0; k < (size_t)P * P; k++)
+				for (int b = 0; b < 4; b++) {
+					int tv = (int8_t)(twin[k] >> (8 * b)), gv = gpu_n[k * 4 + b];
+					twin_steps = tv - gv > twin_steps ? tv - gv : gv - tv > twin_steps ? gv - tv : twin_steps;
+					twin_same += tv == gv;
+				}
+			free(twin);
 			free(mask);
 			for (uint32_t y = 0; y < P; y++)
 				for (uint32_t x = 0; x < P; x++) {
@@ -151,6 +164,9 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	              "worst normal component error %.4f\n",
 	              test_dem_name(d), checked, worst_normal);
 	assert_true(worst_normal <= 0.006);
+	print_message("%s: the CPU normals twin equals the GPU in %.4f %% of components, at most %d snorm8 step(s) off\n",
+	              test_dem_name(d), 100.0 * (double)twin_same / ((double)checked * P * P * 4), twin_steps);
+	assert_true(twin_steps <= 1);
 	struct relief_patch_cache_stats s;
 	relief_patch_cache_stats(c, &s);
 	assert_int_equal(s.decoded, checked);
