@@ -5,6 +5,8 @@
  * medians over --runs runs:
  *   cpu_ref   one thread: fetch, entropy-decode and reconstruct every patch (tree walk);
  *   entropy   one thread: fetch and entropy-decode only (the CPU share of the GPU path);
+ *   normals   one thread: the packed normal maps of every decoded patch (common/normals.c),
+ *             what a CPU decoder would add to fill the pool the renderer reads;
  *   gpu       wall time from the first request to the last patch resident in the cache:
  *             the worker thread entropy-decodes while the GPU reconstructs, in batches;
  *             gpu_busy_ms is the GPU's own time from timestamps, split into the decode
@@ -168,7 +170,8 @@ int bench_decode(int argc, char **argv)
 			       "patches: MSamples/s (decoded patch samples), the CPU entropy stage alone, GPU time\n"
 			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3);\n"
 			       "--workers: the cache's entropy-decoding threads (default 1). Also the descent\n"
-			       "latency: updates (one per frame) until a root-to-finest chain is resident.\n");
+			       "latency: updates (one per frame) until a root-to-finest chain is resident, and\n"
+			       "the ratio at equal outputs: the reference plus the normal maps on the CPU.\n");
 			return 0;
 		case ':':
 		default:
