@@ -1,6 +1,5 @@
-#include <stddef.h>
-
 #include <math.h>
+#include <stddef.h>
 
 #include "normals.h"
 

@@ -12,8 +12,8 @@
 #include "decode.h"
 #include "format.h"
 #include "gpu_test.h"
-#include "pack.h"
 #include "normals.h"
+#include "pack.h"
 #include "patch_cache.h"
 
 #define vk gpu_test_vk
@@ -140,9 +140,9 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 			relief_normals_pack(f, l, cpu, mask, twin);
 			for (size_t k = 0; k < (size_t)P * P; k++)
 				for (int b = 0; b < 4; b++) {
-					int tv = (int8_t)(twin[k] >> (8 * b)), gv = gpu_n[k * 4 + b];
-					twin_steps = tv - gv > twin_steps ? tv - gv : gv - tv > twin_steps ? gv - tv : twin_steps;
-					twin_same += tv == gv;
+					int tv = (int8_t)(twin[k] >> (8 * b)), gv = gpu_n[k * 4 + b], steps = abs(tv - gv);
+					twin_steps = steps > twin_steps ? steps : twin_steps;
+					twin_same += steps == 0;
 				}
 			free(twin);
 			free(mask);
