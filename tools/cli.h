@@ -4,6 +4,7 @@
 #pragma once
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 
@@ -38,6 +39,15 @@ bool cli_parse_list(const char *cmd, const char *opt, const char *s, double min,
 int cli_option_error(const char *cmd, int c, char **argv);
 /* Writes s as a JSON string, quotes included (", \\ and control characters escaped). */
 void cli_json_string(FILE *f, const char *s);
+/* False (after printing why) when an output would overwrite one of the inputs, being the
+ * same file under any name, or two outputs are one file; NULL entries are skipped
+ * (options not given). Check before writing anything. */
+bool cli_outputs_ok(const char *cmd, const char *const *outs, size_t nouts, const char *const *ins, size_t nins);
+/* Replacing `out` only once its new content is complete: cli_replace_begin() creates an
+ * empty file beside it (*tmp, to be written by any means), cli_replace_end() renames it
+ * over `out` if ret is 0, removes it otherwise, frees *tmp and returns ret or -errno. */
+int cli_replace_begin(const char *out, char **tmp);
+int cli_replace_end(char *tmp, const char *out, int ret);
 /* Creates the parent directory of `path` if needed (one level, like out/). */
 int cli_make_parent_dir(const char *path);
 

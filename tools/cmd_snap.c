@@ -108,6 +108,9 @@ int cmd_snap(int argc, char **argv)
 		return EXIT_USAGE;
 	}
 	const char *path = argv[optind];
+	const char *outs[] = { output, depth_path };
+	if (!cli_outputs_ok("snap", outs, 2, &path, 1))
+		return EXIT_USAGE;
 	char err[512];
 	struct relief_file *f;
 	if (relief_file_open(path, &f, err, sizeof(err)) < 0) {
@@ -165,7 +168,10 @@ int cmd_snap(int argc, char **argv)
 		fprintf(stderr, "relief snap: rendering failed: %s\n", strerror(-ret));
 		goto out;
 	}
-	if ((ret = cli_make_parent_dir(output)) < 0 || (ret = png_write_rgba(output, g.target.color_readback.map, width, height)) < 0) {
+	/* Each output replaces what was there only once it is complete. */
+	char *tmp;
+	if ((ret = cli_make_parent_dir(output)) < 0 || (ret = cli_replace_begin(output, &tmp)) < 0 ||
+	    (ret = cli_replace_end(tmp, output, png_write_rgba(tmp, g.target.color_readback.map, width, height))) < 0) {
 		fprintf(stderr, "relief snap: cannot write %s: %s\n", output, strerror(-ret));
 		goto out;
 	}
@@ -175,13 +181,17 @@ int cmd_snap(int argc, char **argv)
 		const float *d = g.target.depth_readback.map;
 		for (size_t i = 0; i < n && dist; i++)
 			le_put_f32((uint8_t *)&dist[i], (float)relief_view_depth_distance(&view, d[i]));
-		FILE *df = dist ? fopen(depth_path, "wbe") : NULL;
-		bool ok = df && fwrite(dist, sizeof(float), n, df) == n;
-		if (df && fclose(df) != 0)
-			ok = false;
+		ret = dist ? cli_replace_begin(depth_path, &tmp) : -ENOMEM;
+		if (ret == 0) {
+			FILE *df = fopen(tmp, "wbe");
+			ret = df && fwrite(dist, sizeof(float), n, df) == n ? 0 : -EIO;
+			if (df && fclose(df) != 0 && ret == 0)
+				ret = -errno;
+			ret = cli_replace_end(tmp, depth_path, ret);
+		}
 		free(dist);
-		if (!ok) {
-			fprintf(stderr, "relief snap: cannot write %s\n", depth_path);
+		if (ret < 0) {
+			fprintf(stderr, "relief snap: cannot write %s: %s\n", depth_path, strerror(-ret));
 			goto out;
 		}
 	}

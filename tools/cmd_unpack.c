@@ -93,6 +93,9 @@ int cmd_unpack(int argc, char **argv)
 		return EXIT_USAGE;
 	}
 	const char *in = argv[optind], *out = argv[optind + 1];
+	const char *outs[] = { out, mask_path };
+	if (!cli_outputs_ok("unpack", outs, 2, &in, 1))
+		return EXIT_USAGE;
 	char err[512];
 	struct relief_file *f;
 	if (relief_file_open(in, &f, err, sizeof(err)) < 0) {
@@ -117,18 +120,24 @@ int cmd_unpack(int argc, char **argv)
 		        ret == -EBADMSG ? "corrupt patch data" : strerror(-ret));
 		goto out;
 	}
-	if (raw) {
-		for (size_t i = 0; i < (size_t)w * h; i++)
-			le_put_f32((uint8_t *)&heights[i], heights[i]);
-		ret = write_bytes(out, heights, sizeof(float) * w * h);
-	} else {
-		ret = write_geotiff(out, f, level, heights, w, h);
+	/* Each output replaces what was there only once it is complete. */
+	char *tmp;
+	if ((ret = cli_replace_begin(out, &tmp)) == 0) {
+		if (raw) {
+			for (size_t i = 0; i < (size_t)w * h; i++)
+				le_put_f32((uint8_t *)&heights[i], heights[i]);
+			ret = write_bytes(tmp, heights, sizeof(float) * w * h);
+		} else {
+			ret = write_geotiff(tmp, f, level, heights, w, h);
+		}
+		ret = cli_replace_end(tmp, out, ret);
 	}
 	if (ret < 0) {
 		fprintf(stderr, "relief unpack: cannot write %s: %s\n", out, strerror(-ret));
 		goto out;
 	}
-	if (mask_path && (ret = write_bytes(mask_path, mask, (size_t)w * h)) < 0) {
+	if (mask_path && ((ret = cli_replace_begin(mask_path, &tmp)) < 0 ||
+	                  (ret = cli_replace_end(tmp, mask_path, write_bytes(tmp, mask, (size_t)w * h))) < 0)) {
 		fprintf(stderr, "relief unpack: cannot write %s: %s\n", mask_path, strerror(-ret));
 		goto out;
 	}

@@ -70,6 +70,20 @@ check unpack-level 0 "$relief" unpack "$tmp/lux.relief" "$tmp/lux0.f32" --raw --
 [ "$(stat -c %s "$tmp/lux0.f32")" -eq $((48 * 45 * 4)) ] || { echo "FAIL level-0 size"; fails=$((fails + 1)); }
 check unpack-bad-level 2 "$relief" unpack "$tmp/lux.relief" "$tmp/x.f32" --level 9
 expect_text unpack-bad-level-named "levels 0..1"
+# An output that is an input under any name is refused before anything is written (pack
+# once replaced its input raster, unpack its .relief file); the input stays as it was.
+cp "$data/luxembourg_elev.tif" "$tmp/own.tif"
+ln -s "$tmp/own.tif" "$tmp/own-link.tif"
+sum_before=$(md5sum <"$tmp/own.tif")
+check pack-onto-input 2 "$relief" pack "$tmp/own.tif" "$tmp/own-link.tif" -t 1
+expect_text pack-onto-input-named "is the input $tmp/own.tif"
+sum_lux=$(md5sum <"$tmp/lux.relief")
+check unpack-onto-input 2 "$relief" unpack "$tmp/lux.relief" "$tmp/../$(basename "$tmp")/lux.relief"
+check unpack-mask-onto-output 2 "$relief" unpack "$tmp/lux.relief" "$tmp/u.f32" --raw --mask "$tmp/u.f32"
+expect_text unpack-mask-onto-output-named "are one file"
+[ "$(md5sum <"$tmp/own.tif")" = "$sum_before" ] && [ "$(md5sum <"$tmp/lux.relief")" = "$sum_lux" ] ||
+	{ echo "FAIL an input changed"; fails=$((fails + 1)); }
+[ -z "$(ls "$tmp" | grep '\.tmp')" ] || { echo "FAIL temporary files left: $(ls "$tmp")"; fails=$((fails + 1)); }
 # usage errors
 check pack-no-tolerance 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief"
 expect_text pack-no-tolerance-named "--tolerance"
@@ -179,6 +193,8 @@ expect_text fly-bad-channels-named "--channels"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
+check snap-onto-input 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 -o "$tmp/ps.relief"
+check snap-depth-onto-png 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 -o "$tmp/a.png" --depth "$tmp/a.png"
 vkcheck snap-tiny-fov 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --fov 0.005 -o "$tmp/x.png"
 expect_text snap-tiny-fov-named "between 0.00573 and 179.99427 degrees"
 # A list with an empty field is refused, not read as a shorter list (1,,2,3 once gave 1,2,3).
