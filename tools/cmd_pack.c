@@ -121,7 +121,10 @@ int cmd_pack(int argc, char **argv)
 	if (!import_options_check("pack", &io))
 		return EXIT_USAGE;
 	const char *in = argv[optind], *out = argv[optind + 1];
-	if (!cli_outputs_ok("pack", &out, 1, &in, 1))
+	char sidecar[4096];
+	snprintf(sidecar, sizeof(sidecar), "%s.relief-import", in);
+	const char *ins[] = { in, sidecar };
+	if (!cli_outputs_ok("pack", &out, 1, ins, 2))
 		return EXIT_USAGE;
 	if (import_sidecar_merge("pack", in, &io) < 0)
 		return EXIT_USAGE;

@@ -77,6 +77,9 @@ ln -s "$tmp/own.tif" "$tmp/own-link.tif"
 sum_before=$(md5sum <"$tmp/own.tif")
 check pack-onto-input 2 "$relief" pack "$tmp/own.tif" "$tmp/own-link.tif" -t 1
 expect_text pack-onto-input-named "is the input $tmp/own.tif"
+printf '[import]\nspacing = 30\n' >"$tmp/own.tif.relief-import"
+check pack-onto-sidecar 2 "$relief" pack "$tmp/own.tif" "$tmp/own.tif.relief-import" -t 1
+expect_text pack-onto-sidecar-named "is the input $tmp/own.tif.relief-import"
 sum_lux=$(md5sum <"$tmp/lux.relief")
 check unpack-onto-input 2 "$relief" unpack "$tmp/lux.relief" "$tmp/../$(basename "$tmp")/lux.relief"
 check unpack-mask-onto-output 2 "$relief" unpack "$tmp/lux.relief" "$tmp/u.f32" --raw --mask "$tmp/u.f32"
