@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include <ini.h>
 
@@ -115,9 +116,19 @@ int reliefd_config_load(struct reliefd_config *c, const char *path, char *err, s
 		snprintf(err, err_size, "%s: %s", path, strerror(e));
 		return -e;
 	}
+	struct stat sb;
+	if (fstat(fileno(f), &sb) < 0 || !S_ISREG(sb.st_mode)) {
+		snprintf(err, err_size, "%s: not a regular file", path);
+		fclose(f);
+		return -EINVAL;
+	}
 	struct reliefd_config tmp = *c;
 	struct parse_state st = { .c = &tmp, .err = err, .err_size = err_size };
 	int ret = finish(&st, ini_parse_file(f, handler, &st));
+	if (ret == 0 && ferror(f)) { /* inih stops at a read error as at the end */
+		snprintf(err, err_size, "%s: read error", path);
+		ret = -EIO;
+	}
 	fclose(f);
 	if (ret == 0)
 		*c = tmp;

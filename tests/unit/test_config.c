@@ -51,6 +51,11 @@ static void test_load_missing_file(void **state)
 	assert_non_null(strstr(err, "/nonexistent/reliefd.conf"));
 	assert_int_equal(reliefd_config_load(&c, RELIEF_SOURCE_DIR "/config/reliefd.conf", err, sizeof(err)), 0);
 	assert_int_equal(c.budget_mib, 256);
+	/* A directory opens and reads as nothing: it once loaded as an empty configuration. */
+	c.budget_mib = 99;
+	assert_int_equal(reliefd_config_load(&c, RELIEF_SOURCE_DIR "/config", err, sizeof(err)), -EINVAL);
+	assert_non_null(strstr(err, "config: not a regular file"));
+	assert_int_equal(c.budget_mib, 99); /* untouched */
 	assert_int_equal(test_count_fds(), fds);
 }
 
