@@ -48,33 +48,34 @@ static bool same_file(const struct file_key *a, const struct file_key *b)
 	return a->exists ? a->dev == b->dev && a->ino == b->ino : strcmp(a->name, b->name) == 0;
 }
 
+/* The first of paths[from..n) (NULL entries skipped) that is the file k names, or NULL. */
+static const char *same_as(const struct file_key *k, const char *const *paths, size_t from, size_t n)
+{
+	struct file_key other;
+	for (size_t i = from; i < n; i++) {
+		if (!paths[i])
+			continue;
+		file_key(paths[i], &other);
+		if (same_file(k, &other))
+			return paths[i];
+	}
+	return NULL;
+}
+
 bool cli_outputs_ok(const char *cmd, const char *const *outs, size_t nouts, const char *const *ins, size_t nins)
 {
 	for (size_t o = 0; o < nouts; o++) {
 		if (!outs[o])
 			continue;
-		struct file_key ko, k;
-		file_key(outs[o], &ko);
-		for (size_t i = 0; i < nins; i++) {
-			if (!ins[i])
-				continue;
-			file_key(ins[i], &k);
-			if (same_file(&ko, &k)) {
-				fprintf(stderr, "relief %s: %s is the input %s: writing it would destroy it\n", cmd, outs[o],
-				        ins[i]);
-				return false;
-			}
-		}
-		for (size_t p = o + 1; p < nouts; p++) {
-			if (!outs[p])
-				continue;
-			file_key(outs[p], &k);
-			if (same_file(&ko, &k)) {
-				fprintf(stderr, "relief %s: %s and %s are one file: each output needs its own\n", cmd, outs[o],
-				        outs[p]);
-				return false;
-			}
-		}
+		struct file_key k;
+		file_key(outs[o], &k);
+		const char *in = same_as(&k, ins, 0, nins), *out = same_as(&k, outs, o + 1, nouts);
+		if (in)
+			fprintf(stderr, "relief %s: %s is the input %s: writing it would destroy it\n", cmd, outs[o], in);
+		else if (out)
+			fprintf(stderr, "relief %s: %s and %s are one file: each output needs its own\n", cmd, outs[o], out);
+		if (in || out)
+			return false;
 	}
 	return true;
 }
