@@ -189,38 +189,14 @@ static int georef(GDALDatasetH ds, const struct dem_import_options *o, struct re
 	return 0;
 }
 
-int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err, size_t n)
+int dem_import_dataset(void *dataset, const char *path, const struct dem_import_options *o, struct relief_dem *out,
+                       char *err, size_t n)
 {
-	GDALAllRegister();
-	CPLPushErrorHandler(quiet_handler);
-	CPLErrorReset();
+	GDALDatasetH ds = dataset;
 	struct relief_dem d = { .source_units = o->units };
 	int ret = 0;
-	GDALDatasetH ds = NULL;
 	double *buf = NULL;
 	uint8_t *gmask = NULL;
-	if (o->raw_type) {
-		ds = open_raw(path, o, err, n);
-		if (!ds) {
-			ret = -EINVAL;
-			goto out;
-		}
-	} else {
-		struct stat st;
-		if (stat(path, &st) < 0) {
-			ret = -errno;
-			snprintf(err, n, "%s: %s", path, strerror(errno));
-			goto out;
-		}
-		ds = GDALOpenEx(path, GDAL_OF_RASTER | GDAL_OF_READONLY, NULL, NULL, NULL);
-		if (!ds) {
-			const char *why = CPLGetLastErrorMsg();
-			if (is_relief_file(path))
-				why = "it is a .relief file: give the elevation raster it was packed from";
-			ret = fail(err, n, "%s: not a raster GDAL can read%s%s%s", path, *why ? " (" : "", why, *why ? ")" : "");
-			goto out;
-		}
-	}
 	int W = GDALGetRasterXSize(ds), H = GDALGetRasterYSize(ds), bands = GDALGetRasterCount(ds);
 	if (W < 2 || H < 2 || W > 1 << 20 || H > 1 << 20 || (uint64_t)W * H > (1ull << 32)) {
 		ret = fail(err, n, "%s: raster size %dx%d outside 2..1048576 per side and 2^32 samples", path, W, H);
@@ -324,8 +300,36 @@ out:
 	relief_dem_finish(&d);
 	free(buf);
 	free(gmask);
-	if (ds)
+	return ret;
+}
+
+int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err, size_t n)
+{
+	GDALAllRegister();
+	CPLPushErrorHandler(quiet_handler);
+	CPLErrorReset();
+	int ret = 0;
+	GDALDatasetH ds = NULL;
+	if (o->raw_type) {
+		ds = open_raw(path, o, err, n);
+		if (!ds)
+			ret = -EINVAL;
+	} else {
+		struct stat st;
+		if (stat(path, &st) < 0) {
+			ret = -errno;
+			snprintf(err, n, "%s: %s", path, strerror(errno));
+		} else if (!(ds = GDALOpenEx(path, GDAL_OF_RASTER | GDAL_OF_READONLY, NULL, NULL, NULL))) {
+			const char *why = CPLGetLastErrorMsg();
+			if (is_relief_file(path))
+				why = "it is a .relief file: give the elevation raster it was packed from";
+			ret = fail(err, n, "%s: not a raster GDAL can read%s%s%s", path, *why ? " (" : "", why, *why ? ")" : "");
+		}
+	}
+	if (ds) {
+		ret = dem_import_dataset(ds, path, o, out, err, n);
 		GDALClose(ds);
+	}
 	CPLPopErrorHandler();
 	return ret;
 }

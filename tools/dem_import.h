@@ -31,5 +31,10 @@ struct dem_import_options {
 /* 0, or a negative errno with a one-line reason in err. */
 int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err,
                size_t err_size);
+/* The same from a raster already open (a GDALDatasetH; the caller keeps and closes it;
+ * `path` only names it in messages): size, bands, georeferencing, values, no-data. What
+ * dem_import() does after opening, and what the import fuzz target drives directly. */
+int dem_import_dataset(void *dataset, const char *path, const struct dem_import_options *o, struct relief_dem *out,
+                       char *err, size_t err_size);
 /* Mean Earth radius used by the local projection of geographic rasters (IUGG, metres). */
 #define DEM_EARTH_RADIUS 6371008.8

@@ -2,6 +2,8 @@
  * Seeds are valid inputs (small .relief files, patch and mask streams taken from them,
  * configuration texts) plus truncated and bit-flipped variants. Deterministic, so the
  * committed corpus can be regenerated after a format change. */
+#include <math.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -180,5 +182,49 @@ int main(int argc, char **argv)
 		"l1,2,3,4,5", "l-3", "l1e3", "l,", "l", "x1,2,3",
 	};
 	put_texts(out, "args", "txt", args, sizeof(args) / sizeof(args[0]));
+	/* fuzz_import: W, H and flags bytes, gt[6], nodata, scale, offset, spacing, samples
+	 * (see fuzz_import.c). */
+	const struct {
+		const char *name;
+		uint8_t w, h, flags;
+		double d[10];
+		bool i16;
+	} rasters[] = {
+		{ "utm", 2, 2, 1 | 1 << 1, { 500000, 30, 0, 5000000, 0, -30 }, false },
+		{ "wgs84-int16", 2, 2, 1 | 2 << 1 | 16, { 6.0, 0.001, 0, 49.8, 0, -0.001 }, true },
+		{ "feet-nodata", 1, 1, 1 | 3 << 1 | 8, { 1000000, 10, 0, 200000, 0, -10, 103 }, false },
+		{ "unreferenced-spacing", 1, 1, 128, { 0, 0, 0, 0, 0, 0, 0, 0, 0, 10 }, false },
+		{ "scaled", 2, 2, 1 | 1 << 1 | 64, { 0, 1, 0, 4, 0, -1, 0, 0.1, 454 }, false },
+		{ "terrain-rgb", 0, 0, 1 | 1 << 1 | 32 | 16, { 0, 1, 0, 2, 0, -1 }, true },
+		{ "nan-origin", 2, 2, 1 | 1 << 1, { NAN, 1, 0, 4, 0, -1 }, false },
+		{ "tiny-spacing", 2, 2, 1 | 1 << 1, { 0, 1e-9, 0, 4, 0, -1e-9 }, false },
+		{ "south-up", 2, 2, 1 | 1 << 1, { 0, 30, 0, 0, 0, 30 }, false },
+	};
+	for (size_t k = 0; k < sizeof(rasters) / sizeof(rasters[0]); k++) {
+		uint8_t buf[4096];
+		size_t n = 0;
+		buf[n++] = rasters[k].w;
+		buf[n++] = rasters[k].h;
+		buf[n++] = rasters[k].flags;
+		for (int i = 0; i < 10; i++) {
+			memcpy(buf + n, &rasters[k].d[i], 8);
+			n += 8;
+		}
+		int W = 2 + rasters[k].w % 15, H = 2 + rasters[k].h % 15, bands = rasters[k].flags & 32 ? 3 : 1;
+		for (int i = 0; i < W * H * bands; i++) {
+			if (rasters[k].i16) {
+				int16_t s16 = (int16_t)(100 + i * 7);
+				memcpy(buf + n, &s16, 2);
+				n += 2;
+			} else {
+				float s32 = 100.0f + (float)i * 3.5f;
+				memcpy(buf + n, &s32, 4);
+				n += 4;
+			}
+		}
+		char name[64];
+		snprintf(name, sizeof(name), "%s.bin", rasters[k].name);
+		put(out, "import", name, buf, n);
+	}
 	return 0;
 }
