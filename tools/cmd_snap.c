@@ -184,7 +184,7 @@ int cmd_snap(int argc, char **argv)
 		ret = dist ? cli_replace_begin(depth_path, &tmp) : -ENOMEM;
 		if (ret == 0) {
 			FILE *df = fopen(tmp, "wbe");
-			ret = df && fwrite(dist, sizeof(float), n, df) == n ? 0 : -EIO;
+			ret = !df ? -errno : fwrite(dist, sizeof(float), n, df) == n ? 0 : -EIO;
 			if (df && fclose(df) != 0 && ret == 0)
 				ret = -errno;
 			ret = cli_replace_end(tmp, depth_path, ret);

@@ -82,6 +82,7 @@ check pack-onto-sidecar 2 "$relief" pack "$tmp/own.tif" "$tmp/own.tif.relief-imp
 expect_text pack-onto-sidecar-named "is the input $tmp/own.tif.relief-import"
 sum_lux=$(md5sum <"$tmp/lux.relief")
 check unpack-onto-input 2 "$relief" unpack "$tmp/lux.relief" "$tmp/../$(basename "$tmp")/lux.relief"
+check unpack-geotiff 0 "$relief" unpack "$tmp/lux.relief" "$tmp/lux-out.tif" --mask "$tmp/lux-out.mask"
 check unpack-mask-onto-output 2 "$relief" unpack "$tmp/lux.relief" "$tmp/u.f32" --raw --mask "$tmp/u.f32"
 expect_text unpack-mask-onto-output-named "are one file"
 [ "$(md5sum <"$tmp/own.tif")" = "$sum_before" ] && [ "$(md5sum <"$tmp/lux.relief")" = "$sum_lux" ] ||
