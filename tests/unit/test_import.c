@@ -347,6 +347,41 @@ static void test_errors_name_the_problem(void **state)
 	assert_non_null(strstr(err, "beyond +-1e+09 m"));
 }
 
+/* A raster read in several strips of rows (8192 columns: strips of 512 rows), north-up
+ * and south-up, with a no-data sample in the second strip: every sample where it belongs. */
+static void test_strips(void **state)
+{
+	enum { W = 8192, H = 600 };
+	int16_t *v = malloc(sizeof(int16_t) * W * H);
+	for (int i = 0; i < W * H; i++)
+		v[i] = (int16_t)((i % W) * 7 % 1000 + (i / W) * 3);
+	v[550 * W + 17] = -9999;
+	for (int south_up = 0; south_up < 2; south_up++) {
+		GDALDatasetH mem = GDALCreate(GDALGetDriverByName("MEM"), "", W, H, 1, GDT_Int16, NULL);
+		GDALRasterBandH band = GDALGetRasterBand(mem, 1);
+		assert_int_equal(GDALRasterIO(band, GF_Write, 0, 0, W, H, v, W, H, GDT_Int16, 0, 0), CE_None);
+		GDALSetRasterNoDataValue(band, -9999);
+		double gt[6] = { 500000, 30, 0, south_up ? 5000000 : 5000000 + 30.0 * H, 0, south_up ? 30 : -30 };
+		GDALSetGeoTransform(mem, gt);
+		struct dem_import_options o = { 0 };
+		struct relief_dem d;
+		char err[512];
+		assert_int_equal(dem_import_dataset(mem, "strips", &o, &d, err, sizeof(err)), 0);
+		GDALClose(mem);
+		for (int y = 0; y < H; y++) /* output rows run north to south */
+			for (int x = 0; x < W; x++) {
+				int sy = south_up ? H - 1 - y : y, i = y * W + x;
+				bool hole = sy == 550 && x == 17;
+				if (d.valid[i] != !hole || (!hole && d.heights[i] != (float)v[sy * W + x]))
+					fail_msg("south-up %d: sample %d,%d: valid %d height %g, source %d", south_up, x, y, d.valid[i],
+					         d.heights[i], v[sy * W + x]);
+			}
+		assert_true(d.origin_y == 5000000 + 30.0 * H - 15);
+		relief_dem_finish(&d);
+	}
+	free(v);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -358,6 +393,7 @@ int main(void)
 		cmocka_unit_test(test_hgt),
 		cmocka_unit_test(test_projected_and_units),
 		cmocka_unit_test(test_errors_name_the_problem),
+		cmocka_unit_test(test_strips),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);
 }
