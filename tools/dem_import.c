@@ -216,14 +216,8 @@ int dem_import_dataset(void *dataset, const char *path, const struct dem_import_
 	size_t count = (size_t)W * H;
 	d.heights = malloc(sizeof(float) * count);
 	d.valid = calloc(count, 1);
-	/* The source is read in strips of rows, so that the doubles GDAL converts into never
-	 * hold more than ~32 MiB per band however large the raster (whole, they took 8 or 24
-	 * bytes per sample on top of the DEM's 5). */
-	const int nb = o->encoding == DEM_ENCODING_TERRAIN_RGB ? 3 : 1;
-	const int strip = W >= (1 << 22) ? 1 : (1 << 22) / W;
-	const size_t strip_count = (size_t)W * (size_t)(strip < H ? strip : H);
-	buf = malloc(sizeof(double) * strip_count * (size_t)nb);
-	gmask = malloc(strip_count);
+	buf = malloc(sizeof(double) * count * (o->encoding == DEM_ENCODING_TERRAIN_RGB ? 3 : 1));
+	gmask = malloc(count);
 	if (!d.heights || !d.valid || !buf || !gmask) {
 		ret = -ENOMEM;
 		snprintf(err, n, "out of memory for %dx%d samples", W, H);
@@ -249,9 +243,20 @@ int dem_import_dataset(void *dataset, const char *path, const struct dem_import_
 	}
 
 	GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+	int nb = o->encoding == DEM_ENCODING_TERRAIN_RGB ? 3 : 1;
+	for (int b = 0; b < nb; b++)
+		if (GDALRasterIO(GDALGetRasterBand(ds, b + 1), GF_Read, 0, 0, W, H, buf + (size_t)b * count, W, H,
+		                 GDT_Float64, 0, 0) != CE_None) {
+			ret = fail(err, n, "%s: read failed: %s", path, CPLGetLastErrorMsg());
+			goto out;
+		}
 	/* GDAL's mask covers NoData values, alpha bands and per-dataset masks. */
 	int mflags = GDALGetMaskFlags(band);
 	bool use_gmask = !(mflags & GMF_ALL_VALID) && !o->has_nodata && o->encoding == DEM_ENCODING_HEIGHT;
+	if (use_gmask && GDALRasterIO(GDALGetMaskBand(band), GF_Read, 0, 0, W, H, gmask, W, H, GDT_Byte, 0, 0) != CE_None) {
+		ret = fail(err, n, "%s: reading the no-data mask failed: %s", path, CPLGetLastErrorMsg());
+		goto out;
+	}
 	int has_scale = 0, has_offset = 0;
 	double scale = o->has_scale ? o->scale : GDALGetRasterScale(band, &has_scale);
 	double offset = o->has_offset ? o->offset : GDALGetRasterOffset(band, &has_offset);
@@ -263,40 +268,25 @@ int dem_import_dataset(void *dataset, const char *path, const struct dem_import_
 		goto out;
 	}
 	uint64_t valid = 0;
-	for (int r0 = 0; r0 < H; r0 += strip) { /* source rows r0 .. r0 + rows - 1 */
-		const int rows = H - r0 < strip ? H - r0 : strip;
-		const size_t sc = (size_t)W * (size_t)rows;
-		for (int b = 0; b < nb; b++)
-			if (GDALRasterIO(GDALGetRasterBand(ds, b + 1), GF_Read, 0, r0, W, rows, buf + (size_t)b * sc, W, rows,
-			                 GDT_Float64, 0, 0) != CE_None) {
-				ret = fail(err, n, "%s: read failed: %s", path, CPLGetLastErrorMsg());
-				goto out;
+	for (size_t y = 0; y < (size_t)H; y++) {
+		size_t sy = flip ? (size_t)H - 1 - y : y;
+		for (size_t x = 0; x < (size_t)W; x++) {
+			size_t i = y * W + x, s = sy * W + x;
+			double v = buf[s], h;
+			bool ok;
+			if (o->encoding == DEM_ENCODING_TERRAIN_RGB) {
+				h = -10000.0 + (buf[s] * 65536.0 + buf[count + s] * 256.0 + buf[2 * count + s]) * 0.1;
+				ok = true;
+			} else {
+				h = (v * scale + offset) * unit;
+				ok = use_gmask ? gmask[s] != 0 : !(o->has_nodata && v == o->nodata);
 			}
-		if (use_gmask &&
-		    GDALRasterIO(GDALGetMaskBand(band), GF_Read, 0, r0, W, rows, gmask, W, rows, GDT_Byte, 0, 0) != CE_None) {
-			ret = fail(err, n, "%s: reading the no-data mask failed: %s", path, CPLGetLastErrorMsg());
-			goto out;
-		}
-		for (int r = 0; r < rows; r++) {
-			size_t sy = (size_t)(r0 + r), y = flip ? (size_t)H - 1 - sy : sy;
-			for (size_t x = 0; x < (size_t)W; x++) {
-				size_t i = y * W + x, s = (size_t)r * W + x;
-				double v = buf[s], h;
-				bool ok;
-				if (o->encoding == DEM_ENCODING_TERRAIN_RGB) {
-					h = -10000.0 + (buf[s] * 65536.0 + buf[sc + s] * 256.0 + buf[2 * sc + s]) * 0.1;
-					ok = true;
-				} else {
-					h = (v * scale + offset) * unit;
-					ok = use_gmask ? gmask[s] != 0 : !(o->has_nodata && v == o->nodata);
-				}
-				ok = ok && isfinite(h) && fabs(h) < 1e6;
-				d.valid[i] = ok;
-				d.heights[i] = ok ? (float)h : 0.0f;
-				if (raw16)
-					d.raw16[i] = (int32_t)v;
-				valid += ok;
-			}
+			ok = ok && isfinite(h) && fabs(h) < 1e6;
+			d.valid[i] = ok;
+			d.heights[i] = ok ? (float)h : 0.0f;
+			if (raw16)
+				d.raw16[i] = (int32_t)v;
+			valid += ok;
 		}
 	}
 	if (!valid) {
