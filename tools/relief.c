@@ -1,4 +1,5 @@
 /* relief: the command-line front end. Thin: parses the subcommand and hands over. */
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,19 +32,28 @@ int main(int argc, char **argv)
 	const char *level = getenv("RELIEF_LOG");
 	if (level) {
 		static const char *const names[] = { "error", "warn", "info", "debug" };
-		for (int i = 0; i < 4; i++)
-			if (strcmp(level, names[i]) == 0)
-				cli_log_set_level((enum relief_log_level)i);
+		int i = 0;
+		while (i < 4 && strcmp(level, names[i]) != 0)
+			i++;
+		if (i < 4)
+			cli_log_set_level((enum relief_log_level)i);
+		else
+			fprintf(stderr, "relief: RELIEF_LOG='%s' is not error, warn, info or debug: logging at warn\n", level);
 	}
 	if (argc < 2) {
 		usage(stderr);
 		return EXIT_USAGE;
 	}
-	if (strcmp(argv[1], "--version") == 0) {
+	bool version = strcmp(argv[1], "--version") == 0, help = strcmp(argv[1], "--help") == 0 || !strcmp(argv[1], "-h");
+	if ((version || help) && argc > 2) {
+		fprintf(stderr, "relief: %s takes nothing after it (got '%s')\n", argv[1], argv[2]);
+		return EXIT_USAGE;
+	}
+	if (version) {
 		printf("relief %s\n", RELIEF_VERSION);
 		return 0;
 	}
-	if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0) {
+	if (help) {
 		usage(stdout);
 		return 0;
 	}

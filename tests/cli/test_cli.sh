@@ -41,6 +41,10 @@ fi
 check relief-help 0 "$relief" --help
 expect_text relief-help-lists-hello "hello"
 check relief-no-args 2 "$relief"
+check relief-version-extra 2 "$relief" --version extra
+expect_text relief-version-extra-named "--version takes nothing after it (got 'extra')"
+RELIEF_LOG=verbose check relief-bad-log 0 "$relief" --version
+expect_text relief-bad-log-named "RELIEF_LOG='verbose' is not error, warn, info or debug"
 check relief-unknown-command 2 "$relief" frobnicate
 expect_text relief-unknown-command-named "'frobnicate' is not a command"
 check relief-hello-help 0 "$relief" hello --help
