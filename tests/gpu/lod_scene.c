@@ -14,14 +14,20 @@ static struct relief_logger lod_scene_log = { relief_log_stderr, &lod_scene_leve
 void scene_open_at(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h,
                    double dx, double dy, uint32_t max_layers)
 {
-	s->ctx = vk;
 	struct relief_dem dem;
 	test_dem_load(d, &dem);
 	dem.origin_x += dx;
 	dem.origin_y += dy;
-	struct relief_pack_options o = { .patch = 129, .ratio = 2, .tolerance = tol };
-	assert_int_equal(relief_pack_memory(&dem, &o, &s->img, &s->size, NULL), 0);
+	scene_open_dem(s, vk, &dem, tol, w, h, max_layers);
 	relief_dem_finish(&dem);
+}
+
+void scene_open_dem(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, double tol, uint32_t w,
+                    uint32_t h, uint32_t max_layers)
+{
+	s->ctx = vk;
+	struct relief_pack_options o = { .patch = 129, .ratio = 2, .tolerance = tol };
+	assert_int_equal(relief_pack_memory(dem, &o, &s->img, &s->size, NULL), 0);
 	char err[256];
 	assert_int_equal(relief_file_open_memory(s->img, s->size, &s->f, err, sizeof(err)), 0);
 	struct relief_patch_cache_options co = { .budget_bytes = 64ull << 20, .max_layers = max_layers };

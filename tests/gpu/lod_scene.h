@@ -30,6 +30,9 @@ struct scene {
 void scene_open_at(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h,
                    double dx, double dy, uint32_t max_layers);
 void scene_open(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h);
+/* The same for a DEM of the test's own (the caller keeps it). */
+void scene_open_dem(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, double tol, uint32_t w,
+                    uint32_t h, uint32_t max_layers);
 /* Also for a scene whose parts were made by hand (ctx set, img NULL). */
 void scene_close(struct scene *s);
 

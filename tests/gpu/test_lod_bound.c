@@ -409,6 +409,78 @@ static void test_hard_views(void **state)
 	bound_close(&b);
 }
 
+/* A flat sea: every height 0 (so every block error and height range is zero, every block
+ * box flat) with a no-data hole, 513 x 513 samples 30 m apart. From above, grazing at 1 m,
+ * with the eye in the water plane, from below, and straight down over the hole, each
+ * without and with morphing: no depth is NaN or outside [0, 1]; from above the frame is
+ * watertight and within tau of the full-resolution one, and the hole shows; from below
+ * back faces are drawn. */
+static void test_flat_sea(void **state)
+{
+	enum { N = 513, HOLE0 = 240, HOLE1 = 272 };
+	struct relief_dem dem = { .width = N, .height = N, .spacing_x = 30, .spacing_y = 30, .origin_y = 30.0 * (N - 1) };
+	dem.heights = calloc((size_t)N * N, sizeof(float));
+	dem.valid = malloc((size_t)N * N);
+	for (int i = 0; i < N * N; i++) {
+		int x = i % N, y = i / N;
+		dem.valid[i] = !(x >= HOLE0 && x < HOLE1 && y >= HOLE0 && y < HOLE1);
+	}
+	struct scene s;
+	scene_open_dem(&s, vk, &dem, 1.0, BW, BH, 0);
+	relief_dem_finish(&dem);
+	uint32_t fw, fh;
+	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * BW * BH);
+	float *lod = malloc(sizeof(float) * BW * BH);
+	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
+	const double c = 30.0 * (N - 1) / 2; /* the centre, over the hole */
+	const struct {
+		struct pose pose;
+		bool above;
+	} cases[] = {
+		{ { { c, 2000, 100 }, { c, 15000, 0 } }, true },   /* towards the horizon */
+		{ { { c, 2000, 1 }, { c, 10000, 0 } }, true },     /* grazing at 1 m */
+		{ { { c, 2000, 0 }, { c, 10000, 0 } }, false },    /* the eye in the water plane */
+		{ { { 3000, 3000, -10 }, { 3020, 3020, 100 } }, false }, /* below, looking up */
+		{ { { c, c, 3000 }, { c, c, 0 } }, true },          /* straight down over the hole */
+	};
+	for (size_t k = 0; k < 2 * sizeof(cases) / sizeof(cases[0]); k++) { /* each without, then with morphing */
+		struct relief_view v = pose_view(&cases[k / 2].pose);
+		v.znear = 0.1;
+		struct relief_terrain_stats st;
+		if (cases[k / 2].above)
+			render(&s, &v, ref, &st);
+		v.tau = 1.0;
+		v.morph = k % 2;
+		render(&s, &v, lod, &st);
+		uint32_t bad = 0, terrain = 0;
+		for (size_t i = 0; i < (size_t)BW * BH; i++) {
+			bad += !(lod[i] >= 0.0f && lod[i] <= 1.0f); /* also catches NaN */
+			terrain += lod[i] > 0.0f;
+		}
+		print_message("flat sea view %zu%s: %u patches, %llu triangles, %u terrain pixels, %u bad depths, back faces "
+		              "%s\n", k / 2, v.morph ? " morphed" : "", st.patches, (unsigned long long)st.triangles, terrain,
+		              bad, st.face_culled ? "culled" : "drawn");
+		assert_int_equal(bad, 0);
+		if (k / 2 == 3) /* the camera is below the surface: its underside shows */
+			assert_true(!st.face_culled && terrain > (uint32_t)BW * BH / 2);
+		if (!cases[k / 2].above)
+			continue;
+		struct comparison cmp = compare(&s, &v, ref, lod, finest, fw, fh);
+		print_message("  against full resolution: %u holes, max vertical error %.4f px over %u pixels\n", cmp.holes,
+		              cmp.worst_px, cmp.both);
+		assert_int_equal(cmp.holes, 0);
+		assert_true(cmp.both > (uint32_t)BW * BH / 8 && cmp.worst_px <= v.tau);
+		if (k / 2 == 4) /* the hole is in the middle of the picture */
+			assert_true(lod[(BH / 2) * BW + BW / 2] <= 0.0f);
+	}
+	free(finest);
+	free(ref);
+	free(lod);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
  * renders the same frame from the same relative camera, without and with morphing:
  * positions are camera-relative. */
@@ -464,6 +536,7 @@ int main(void)
 		cmocka_unit_test(test_fan_rule_spares_single_segment_edges),
 		cmocka_unit_test(test_morph_continuous),
 		cmocka_unit_test(test_hard_views),
+		cmocka_unit_test(test_flat_sea),
 		cmocka_unit_test(test_huge_coordinates),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
