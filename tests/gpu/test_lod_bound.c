@@ -481,6 +481,67 @@ static void test_flat_sea(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Cliffs: a 1,000 m step between two samples along a north-south line (on a patch and
+ * block border), and a 300 m step along a diagonal, 513 x 513 samples 30 m apart, the rest
+ * gently sloping. Looking at the face from the low side, along the north-south cliff's foot
+ * and top, straight down on it, and at the diagonal step, at tau 1 and 4, each without and
+ * with morphing: watertight and within tau of the full-resolution frame. (Every camera is
+ * above the ground under it: a first version put the foot's camera 270 m inside the
+ * diagonal step, where pixels on the terrain's far edge curtain read hundreds of metres
+ * off.) */
+static void test_cliffs(void **state)
+{
+	enum { N = 513 };
+	struct relief_dem dem = { .width = N, .height = N, .spacing_x = 30, .spacing_y = 30, .origin_y = 30.0 * (N - 1) };
+	dem.heights = malloc(sizeof(float) * N * N);
+	dem.valid = malloc((size_t)N * N);
+	for (int i = 0; i < N * N; i++) {
+		int x = i % N, y = i / N; /* y: rows from the north */
+		dem.heights[i] = (float)(0.5 * x + 0.3 * y + (x >= 256 ? 1000.0 : 0.0) + (x + y >= 600 ? 300.0 : 0.0));
+		dem.valid[i] = 1;
+	}
+	struct scene s;
+	scene_open_dem(&s, vk, &dem, 1.0, BW, BH, 0);
+	relief_dem_finish(&dem);
+	uint32_t fw, fh;
+	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
+	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * BW * BH);
+	float *lod = malloc(sizeof(float) * BW * BH);
+	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
+	const double cx = 30.0 * 256; /* the north-south cliff's x; world y runs north */
+	const struct pose poses[] = {
+		{ { cx - 3000, 5000, 600 }, { cx, 7000, 500 } },      /* at the face from the low side */
+		{ { cx - 200, 1000, 700 }, { cx - 100, 14000, 600 } }, /* along its foot (130 m above the ground) */
+		{ { cx + 200, 1000, 1600 }, { cx + 100, 14000, 1300 } }, /* along its top */
+		{ { cx, 7680, 6000 }, { cx + 10, 7690, 0 } },          /* straight down on it */
+		{ { 12000, 14000, 2500 }, { 9000, 9000, 1200 } },      /* at the diagonal step */
+	};
+	const double taus[] = { 1.0, 4.0 };
+	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+		struct relief_view v = pose_view(&poses[p]);
+		struct relief_terrain_stats st;
+		render(&s, &v, ref, &st);
+		for (size_t k = 0; k < 2 * sizeof(taus) / sizeof(taus[0]); k++) {
+			v.tau = taus[k / 2];
+			v.morph = k % 2;
+			render(&s, &v, lod, &st);
+			struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
+			print_message("cliffs pose %zu tau %g%s: %u patches, %llu triangles, %u holes, max vertical error %.3f px "
+			              "(%.2f m) over %u pixels\n", p, v.tau, v.morph ? " morphed" : "", st.patches,
+			              (unsigned long long)st.triangles, c.holes, c.worst_px, c.worst_m, c.both);
+			assert_int_equal(c.holes, 0);
+			assert_true(c.both > (uint32_t)BW * BH / 8);
+			assert_true(c.worst_px <= v.tau);
+		}
+		v.tau = 0.001;
+	}
+	free(finest);
+	free(ref);
+	free(lod);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
  * renders the same frame from the same relative camera, without and with morphing:
  * positions are camera-relative. */
@@ -537,6 +598,7 @@ int main(void)
 		cmocka_unit_test(test_morph_continuous),
 		cmocka_unit_test(test_hard_views),
 		cmocka_unit_test(test_flat_sea),
+		cmocka_unit_test(test_cliffs),
 		cmocka_unit_test(test_huge_coordinates),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
