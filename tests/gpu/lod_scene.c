@@ -135,14 +135,26 @@ uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n)
 	return view_levels(s, s->view, ids, n, NULL);
 }
 
-void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem)
+/* The finest level and the two depth images of a bound scene whose scene is open. */
+static void bound_buffers(struct bound_scene *b)
 {
-	scene_open(&b->s, vk, dem, 1.0, BW, BH);
 	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
 	b->finest = malloc(sizeof(float) * b->fw * b->fh);
 	assert_int_equal(relief_decode_level(b->s.f, b->s.f->hdr.levels - 1, 0, b->finest, NULL), 0);
 	b->ref = malloc(sizeof(float) * BW * BH);
 	b->lod = malloc(sizeof(float) * BW * BH);
+}
+
+void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem)
+{
+	scene_open(&b->s, vk, dem, 1.0, BW, BH);
+	bound_buffers(b);
+}
+
+void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem)
+{
+	scene_open_dem(&b->s, vk, dem, 1.0, BW, BH, 0);
+	bound_buffers(b);
 }
 
 void bound_close(struct bound_scene *b)

@@ -79,6 +79,8 @@ struct bound_scene {
 };
 
 void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);
+/* The same for a DEM of the test's own (the caller keeps it). */
+void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem);
 /* Also fails the test if the validation layer spoke. */
 void bound_close(struct bound_scene *b);
 

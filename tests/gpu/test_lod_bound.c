@@ -409,6 +409,18 @@ static void test_hard_views(void **state)
 	bound_close(&b);
 }
 
+/* An N x N grid 30 m apart whose north-west sample is at (0, 30 (N - 1)), so that its
+ * south-west one is at the origin: heights 0, every sample valid. */
+static struct relief_dem grid_dem(int N)
+{
+	struct relief_dem dem = { .width = (uint32_t)N, .height = (uint32_t)N, .spacing_x = 30, .spacing_y = 30,
+		                  .origin_y = 30.0 * (N - 1) };
+	dem.heights = calloc((size_t)N * N, sizeof(float));
+	dem.valid = malloc((size_t)N * N);
+	memset(dem.valid, 1, (size_t)N * N);
+	return dem;
+}
+
 /* A flat sea: every height 0 (so every block error and height range is zero, every block
  * box flat) with a no-data hole, 513 x 513 samples 30 m apart. From above, grazing at 1 m,
  * with the eye in the water plane, from below, and straight down over the hole, each
@@ -418,21 +430,12 @@ static void test_hard_views(void **state)
 static void test_flat_sea(void **state)
 {
 	enum { N = 513, HOLE0 = 240, HOLE1 = 272 };
-	struct relief_dem dem = { .width = N, .height = N, .spacing_x = 30, .spacing_y = 30, .origin_y = 30.0 * (N - 1) };
-	dem.heights = calloc((size_t)N * N, sizeof(float));
-	dem.valid = malloc((size_t)N * N);
-	for (int i = 0; i < N * N; i++) {
-		int x = i % N, y = i / N;
-		dem.valid[i] = !(x >= HOLE0 && x < HOLE1 && y >= HOLE0 && y < HOLE1);
-	}
-	struct scene s;
-	scene_open_dem(&s, vk, &dem, 1.0, BW, BH, 0);
+	struct relief_dem dem = grid_dem(N);
+	for (int y = HOLE0; y < HOLE1; y++)
+		memset(dem.valid + (size_t)y * N + HOLE0, 0, HOLE1 - HOLE0);
+	struct bound_scene b;
+	bound_open_dem(&b, vk, &dem);
 	relief_dem_finish(&dem);
-	uint32_t fw, fh;
-	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * BW * BH);
-	float *lod = malloc(sizeof(float) * BW * BH);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
 	const double c = 30.0 * (N - 1) / 2; /* the centre, over the hole */
 	const struct {
 		struct pose pose;
@@ -449,14 +452,14 @@ static void test_flat_sea(void **state)
 		v.znear = 0.1;
 		struct relief_terrain_stats st;
 		if (cases[k / 2].above)
-			render(&s, &v, ref, &st);
+			render(&b.s, &v, b.ref, &st);
 		v.tau = 1.0;
 		v.morph = k % 2;
-		render(&s, &v, lod, &st);
+		render(&b.s, &v, b.lod, &st);
 		uint32_t bad = 0, terrain = 0;
 		for (size_t i = 0; i < (size_t)BW * BH; i++) {
-			bad += !(lod[i] >= 0.0f && lod[i] <= 1.0f); /* also catches NaN */
-			terrain += lod[i] > 0.0f;
+			bad += !(b.lod[i] >= 0.0f && b.lod[i] <= 1.0f); /* also catches NaN */
+			terrain += b.lod[i] > 0.0f;
 		}
 		print_message("flat sea view %zu%s: %u patches, %llu triangles, %u terrain pixels, %u bad depths, back faces "
 		              "%s\n", k / 2, v.morph ? " morphed" : "", st.patches, (unsigned long long)st.triangles, terrain,
@@ -466,19 +469,15 @@ static void test_flat_sea(void **state)
 			assert_true(!st.face_culled && terrain > (uint32_t)BW * BH / 2);
 		if (!cases[k / 2].above)
 			continue;
-		struct comparison cmp = compare(&s, &v, ref, lod, finest, fw, fh);
+		struct comparison cmp = compare(&b.s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
 		print_message("  against full resolution: %u holes, max vertical error %.4f px over %u pixels\n", cmp.holes,
 		              cmp.worst_px, cmp.both);
 		assert_int_equal(cmp.holes, 0);
 		assert_true(cmp.both > (uint32_t)BW * BH / 8 && cmp.worst_px <= v.tau);
 		if (k / 2 == 4) /* the hole is in the middle of the picture */
-			assert_true(lod[(BH / 2) * BW + BW / 2] <= 0.0f);
+			assert_true(b.lod[(BH / 2) * BW + BW / 2] <= 0.0f);
 	}
-	free(finest);
-	free(ref);
-	free(lod);
-	scene_close(&s);
-	gpu_test_assert_clean(vk);
+	bound_close(&b);
 }
 
 /* Cliffs: a 1,000 m step between two samples along a north-south line (on a patch and
@@ -492,22 +491,14 @@ static void test_flat_sea(void **state)
 static void test_cliffs(void **state)
 {
 	enum { N = 513 };
-	struct relief_dem dem = { .width = N, .height = N, .spacing_x = 30, .spacing_y = 30, .origin_y = 30.0 * (N - 1) };
-	dem.heights = malloc(sizeof(float) * N * N);
-	dem.valid = malloc((size_t)N * N);
+	struct relief_dem dem = grid_dem(N);
 	for (int i = 0; i < N * N; i++) {
 		int x = i % N, y = i / N; /* y: rows from the north */
 		dem.heights[i] = (float)(0.5 * x + 0.3 * y + (x >= 256 ? 1000.0 : 0.0) + (x + y >= 600 ? 300.0 : 0.0));
-		dem.valid[i] = 1;
 	}
-	struct scene s;
-	scene_open_dem(&s, vk, &dem, 1.0, BW, BH, 0);
+	struct bound_scene b;
+	bound_open_dem(&b, vk, &dem);
 	relief_dem_finish(&dem);
-	uint32_t fw, fh;
-	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * BW * BH);
-	float *lod = malloc(sizeof(float) * BW * BH);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
 	const double cx = 30.0 * 256; /* the north-south cliff's x; world y runs north */
 	const struct pose poses[] = {
 		{ { cx - 3000, 5000, 600 }, { cx, 7000, 500 } },      /* at the face from the low side */
@@ -520,12 +511,12 @@ static void test_cliffs(void **state)
 	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
 		struct relief_view v = pose_view(&poses[p]);
 		struct relief_terrain_stats st;
-		render(&s, &v, ref, &st);
+		render(&b.s, &v, b.ref, &st);
 		for (size_t k = 0; k < 2 * sizeof(taus) / sizeof(taus[0]); k++) {
 			v.tau = taus[k / 2];
 			v.morph = k % 2;
-			render(&s, &v, lod, &st);
-			struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
+			render(&b.s, &v, b.lod, &st);
+			struct comparison c = compare(&b.s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
 			print_message("cliffs pose %zu tau %g%s: %u patches, %llu triangles, %u holes, max vertical error %.3f px "
 			              "(%.2f m) over %u pixels\n", p, v.tau, v.morph ? " morphed" : "", st.patches,
 			              (unsigned long long)st.triangles, c.holes, c.worst_px, c.worst_m, c.both);
@@ -535,11 +526,7 @@ static void test_cliffs(void **state)
 		}
 		v.tau = 0.001;
 	}
-	free(finest);
-	free(ref);
-	free(lod);
-	scene_close(&s);
-	gpu_test_assert_clean(vk);
+	bound_close(&b);
 }
 
 /* The same terrain at the origin and at UTM-like coordinates (500 km east, 5000 km north)
