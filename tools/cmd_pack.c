@@ -122,7 +122,7 @@ int cmd_pack(int argc, char **argv)
 		return EXIT_USAGE;
 	const char *in = argv[optind], *out = argv[optind + 1];
 	char sidecar[4096];
-	snprintf(sidecar, sizeof(sidecar), "%s.relief-import", in);
+	snprintf(sidecar, sizeof(sidecar), "%s" IMPORT_SIDECAR_SUFFIX, in);
 	const char *ins[] = { in, sidecar };
 	if (!cli_outputs_ok("pack", &out, 1, ins, 2))
 		return EXIT_USAGE;

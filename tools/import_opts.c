@@ -119,11 +119,11 @@ int import_sidecar_parse(const char *cmd, const char *text, struct dem_import_op
 
 int import_sidecar_merge(const char *cmd, const char *input, struct dem_import_options *o)
 {
-	size_t n = strlen(input) + 16;
+	size_t n = strlen(input) + sizeof(IMPORT_SIDECAR_SUFFIX);
 	char *path = malloc(n);
 	if (!path)
 		return -ENOMEM;
-	snprintf(path, n, "%s.relief-import", input);
+	snprintf(path, n, "%s" IMPORT_SIDECAR_SUFFIX, input);
 	FILE *f = fopen(path, "re");
 	if (!f) {
 		int e = errno;

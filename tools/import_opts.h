@@ -35,6 +35,7 @@ enum {
 
 /* Handles one import option (c >= OPT_ENCODING). Returns false after printing an error. */
 bool import_option(const char *cmd, int c, const char *arg, struct dem_import_options *o);
+#define IMPORT_SIDECAR_SUFFIX ".relief-import"
 /* Sidecar: INPUT.relief-import, an INI file with an [import] section whose keys are the
  * long option names above (encoding, scale, offset, spacing, units, nodata). Values the
  * command line did not set are taken from it. Returns 0 when there is no sidecar, -EINVAL
