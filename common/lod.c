@@ -282,6 +282,9 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 	return fabs(e0) < fabs(e1) ? e0 : e1;
 }
 
+/* Block height ranges of one patch: blocks^2 pairs, at most 16 x 16 blocks (P = 257). */
+enum { MAX_BLOCK_RANGES = 2 * 16 * 16 };
+
 double relief_surface_height_bound(const struct relief_file *f, double x, double y)
 {
 	const struct relief_header *hd = &f->hdr;
@@ -291,8 +294,8 @@ double relief_surface_height_bound(const struct relief_file *f, double x, double
 	if (!(gx >= 0 && gy >= 0 && gx <= last && gy <= last)) /* also NaN */
 		return global;
 	const uint32_t P = hd->patch_size, blocks = f->layout.blocks, L = hd->levels;
-	float range[2 * 16 * 16];
-	assert(relief_block_ranges_per_patch(P) <= sizeof(range) / sizeof(range[0]));
+	float range[MAX_BLOCK_RANGES];
+	assert(relief_block_ranges_per_patch(P) <= MAX_BLOCK_RANGES);
 	double bound = -INFINITY;
 	uint32_t decoded = UINT32_MAX; /* the patch whose ranges are in range[] */
 	for (uint32_t l = 0; l < L; l++)
@@ -328,7 +331,8 @@ double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *id
 	const uint32_t blocks = f->layout.blocks;
 	/* metres east of the grid's origin and south of it (rows) */
 	const double ex = x - hd->origin_x, ey = hd->origin_y - y;
-	float range[2 * 16 * 16];
+	float range[MAX_BLOCK_RANGES];
+	assert(relief_block_ranges_per_patch(hd->patch_size) <= MAX_BLOCK_RANGES);
 	double bound = -INFINITY;
 	bool found = false;
 	for (uint32_t i = 0; i < n; i++) {
