@@ -82,7 +82,9 @@ void main()
 	uint draws = min((total + pc.per_draw - 1u) / pc.per_draw, pc.max_draws);
 	for (uint g = gl_GlobalInvocationID.x; g < draws; g += gl_WorkGroupSize.x) {
 		uint first = g * pc.per_draw;
-		cmds[g] = DrawCmd(4u, min(pc.per_draw, total - first), 0u, first);
+		// The first quad goes in first_vertex (4 per quad), not first_instance: a non-zero
+		// first_instance needs the optional drawIndirectFirstInstance feature.
+		cmds[g] = DrawCmd(4u, min(pc.per_draw, total - first), 4u * first, 0u);
 	}
 	if (gl_LocalInvocationIndex == 0u) {
 		s_high = 0u;

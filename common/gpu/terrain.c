@@ -194,7 +194,14 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	t->max_quads = t->max_patches * (t->per_patch + 4 * t->blocks);
 	t->max_draws = (t->max_quads + t->per_draw - 1) / t->per_draw;
 
-	int ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
+	int ret;
+	if (t->max_draws > vk->props.limits.maxDrawIndirectCount) {
+		relief_log(&vk->log, RELIEF_LOG_ERROR, "terrain: %u draw records per frame, the device takes %u",
+		           t->max_draws, vk->props.limits.maxDrawIndirectCount);
+		ret = -ENOTSUP;
+		goto fail;
+	}
+	ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
 	                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
 	if (ret < 0)
 		goto fail;

@@ -111,7 +111,7 @@ static void describe_device(VkPhysicalDevice phys, bool drm_ext, struct relief_v
 	}
 	uint32_t family, ts;
 	d->usable = props.properties.apiVersion >= VK_API_VERSION_1_2 && feats.tessellationShader &&
-	            pick_queue_family(phys, &family, &ts) == 0;
+	            feats.multiDrawIndirect && pick_queue_family(phys, &family, &ts) == 0;
 }
 
 static int create_instance(struct relief_vk *vk)
@@ -205,7 +205,7 @@ static int choose_device(struct relief_vk *vk, const char *want)
 	ret = relief_vk_pick_device(desc, n, &query, &index);
 	if (ret < 0) {
 		relief_log(&vk->log, RELIEF_LOG_ERROR, "no usable Vulkan device%s%s (%u found; need Vulkan 1.2, "
-		           "tessellation, a graphics+compute queue)", want && *want ? " matches " : "",
+		           "tessellation, multi-draw indirect, a graphics+compute queue)", want && *want ? " matches " : "",
 		           want && *want ? want : "", n);
 		goto out;
 	}
@@ -244,7 +244,7 @@ static int create_device(struct relief_vk *vk)
 			.fillModeNonSolid = have.features.fillModeNonSolid,
 			.shaderStorageImageWriteWithoutFormat = have.features.shaderStorageImageWriteWithoutFormat,
 			.shaderStorageImageExtendedFormats = have.features.shaderStorageImageExtendedFormats,
-			.multiDrawIndirect = have.features.multiDrawIndirect,
+			.multiDrawIndirect = VK_TRUE, /* a usable device has it (describe_device()) */
 		},
 	};
 	vk->has.pipeline_statistics = have.features.pipelineStatisticsQuery;

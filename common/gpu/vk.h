@@ -79,7 +79,7 @@ struct relief_vk_device_desc {
 	VkPhysicalDeviceType type;
 	bool has_render_node; /* VK_EXT_physical_device_drm reported a render node */
 	int64_t render_major, render_minor;
-	bool usable; /* API >= 1.2, a graphics+compute queue, tessellation shaders */
+	bool usable; /* API >= 1.2, a graphics+compute queue, tessellation shaders, multiDrawIndirect */
 };
 
 enum relief_vk_query_kind {
