@@ -130,12 +130,15 @@ static int create_instance(struct relief_vk *vk)
 		.pEngineName = "relief",
 		.apiVersion = VK_API_VERSION_1_2,
 	};
+	/* Synchronisation checks always; GPU-assisted validation with vk->gpu_av (much slower;
+	 * scripts/test runs the GPU tests so once). */
 	VkValidationFeatureEnableEXT enables[] = {
 		VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT,
+		VK_VALIDATION_FEATURE_ENABLE_GPU_ASSISTED_EXT,
 	};
 	VkValidationFeaturesEXT features = {
 		.sType = VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT,
-		.enabledValidationFeatureCount = 1,
+		.enabledValidationFeatureCount = vk->gpu_av ? 2 : 1,
 		.pEnabledValidationFeatures = enables,
 	};
 	VkDebugUtilsMessengerCreateInfoEXT messenger = {
@@ -247,7 +250,7 @@ static int create_device(struct relief_vk *vk)
 			.multiDrawIndirect = VK_TRUE, /* a usable device has it (describe_device()) */
 		},
 	};
-	vk->has.pipeline_statistics = have.features.pipelineStatisticsQuery;
+	vk->has.pipeline_statistics = have.features.pipelineStatisticsQuery && !vk->gpu_av;
 	vk->has.fill_mode_non_solid = have.features.fillModeNonSolid;
 	vk->has.draw_indirect_count = have12.drawIndirectCount;
 	vk->has.external_memory_fd = device_extension(vk->phys, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
@@ -294,6 +297,7 @@ int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **ou
 		vk->log = *opts->log;
 	atomic_init(&vk->validation_messages, 0);
 	vk->validation = env_flag("RELIEF_VALIDATION", opts->validation);
+	vk->gpu_av = vk->validation && env_flag("RELIEF_GPU_AV", false);
 
 	int ret;
 	if (vk->validation && !layer_available(VALIDATION_LAYER)) {

@@ -31,7 +31,8 @@ struct relief_vk_options {
 	const char *device;
 	/* Enable VK_LAYER_KHRONOS_validation with synchronisation validation. Its messages go
 	 * to the logger and are counted in validation_messages. RELIEF_VALIDATION=0|1 overrides.
-	 * Asking for it when the layer is not installed is an error (-ENOENT). */
+	 * Asking for it when the layer is not installed is an error (-ENOENT). With validation
+	 * on, RELIEF_GPU_AV=1 adds GPU-assisted validation (struct relief_vk's gpu_av). */
 	bool validation;
 	const struct relief_logger *log;
 };
@@ -49,6 +50,11 @@ struct relief_vk {
 	VkPhysicalDeviceMemoryProperties mem;
 	uint32_t timestamp_valid_bits;
 	bool validation;
+	/* GPU-assisted validation is on (RELIEF_GPU_AV): the layer instruments the shaders and
+	 * checks what only the device sees, such as draw records a compute pass wrote. Its
+	 * checks of indirect draws insert draws of its own, which lavapipe counts into (or
+	 * resets) pipeline statistics, so has.pipeline_statistics is false then. */
+	bool gpu_av;
 	struct {
 		bool pipeline_statistics;
 		bool fill_mode_non_solid;

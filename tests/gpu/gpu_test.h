@@ -36,6 +36,22 @@ static inline struct relief_vk *gpu_test_context(void)
 	return vk;
 }
 
+/* Whether draws are counted (pipeline statistics: triangles, invocations), which some
+ * checks compare.
+ * Not under GPU-assisted validation (struct relief_vk's gpu_av): scripts/test runs those
+ * checks in its normal pass and the GPU tests once more with RELIEF_GPU_AV for the layer's
+ * messages. Says so once per test program when it skips them. */
+static inline bool gpu_test_has_statistics(const struct relief_vk *vk)
+{
+	static bool said;
+	if (!vk->has.pipeline_statistics && !said) {
+		printf("no pipeline statistics%s: the checks of triangle and invocation counts are skipped\n",
+		       vk->gpu_av ? " under GPU-assisted validation" : "");
+		said = true;
+	}
+	return vk->has.pipeline_statistics;
+}
+
 static inline void gpu_test_assert_clean(struct relief_vk *vk)
 {
 	assert_int_equal(atomic_load(&vk->validation_messages), 0);

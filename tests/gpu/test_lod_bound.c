@@ -123,7 +123,8 @@ static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n
 			              (unsigned long long)full_triangles, c.holes, c.worst_px, c.both);
 			*level_kinds |= (levels & (levels - 1)) ? 2u : 1u;
 			assert_true(n >= 4);
-			assert_true(st.triangles < full_triangles);
+			if (gpu_test_has_statistics(s.ctx))
+				assert_true(st.triangles < full_triangles);
 			assert_true(c.both > BW * BH / 8);
 			assert_int_equal(c.holes, 0);
 			assert_true(c.worst_px <= v.tau + 0.05);

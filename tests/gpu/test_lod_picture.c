@@ -81,7 +81,8 @@ static void test_shading_keeps_detail(void **state)
 	double rms = sqrt(sum / (BW * BH));
 	print_message("straight down on Rainier: %llu triangles at full resolution, %llu at tau 8; RMS colour "
 	              "difference %.2f steps\n", (unsigned long long)full.triangles, (unsigned long long)coarse.triangles, rms);
-	assert_true(coarse.triangles * 4 < full.triangles); /* really coarser */
+	if (gpu_test_has_statistics(b.s.ctx))
+		assert_true(coarse.triangles * 4 < full.triangles); /* really coarser */
 	assert_true(rms < 4.5);
 	free(ref);
 	bound_close(&b);
@@ -111,6 +112,7 @@ static void test_block_cull_keeps_picture(void **state)
 	};
 	uint8_t *colour = malloc((size_t)BW * BH * 4);
 	uint64_t culled = 0, all = 0;
+	const bool counts = gpu_test_has_statistics(b.s.ctx);
 	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
 		for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
 			struct relief_view v = pose_view(&cases[c].pose), lod = v;
@@ -136,13 +138,15 @@ static void test_block_cull_keeps_picture(void **state)
 			assert_true(terrain > 0);
 			assert_memory_equal(b.lod, b.ref, sizeof(float) * BW * BH);
 			assert_memory_equal(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
-			assert_true(with.triangles <= without.triangles);
+			if (counts)
+				assert_true(with.triangles <= without.triangles);
 			culled += with.triangles;
 			all += without.triangles;
 		}
 	print_message("all views: %llu triangles with culling, %llu without\n", (unsigned long long)culled,
 	              (unsigned long long)all);
-	assert_true(culled < all); /* pipeline statistics are supported on lavapipe */
+	if (counts)
+		assert_true(culled < all);
 	free(colour);
 	bound_close(&b);
 }

@@ -480,7 +480,9 @@ static void test_frozen_lod(void **state)
 	const struct relief_draw_options self = { .lod_view = &v };
 	render_with(&s, &v, &self, frozen, &st_frozen);
 	assert_memory_equal(frozen, b.lod, sizeof(float) * BW * BH);
-	assert_int_equal(st_frozen.triangles, st.triangles);
+	const bool counts = gpu_test_has_statistics(s.ctx);
+	if (counts)
+		assert_int_equal(st_frozen.triangles, st.triangles);
 	/* From the moved camera. */
 	const struct relief_draw_options from_v = { .lod_view = &v };
 	render_with(&s, &moved, &from_v, frozen, &st_frozen);
@@ -492,9 +494,11 @@ static void test_frozen_lod(void **state)
 	print_message("frozen LOD: %llu primitives (its own frame %llu, a normal frame at the moved camera %llu)\n",
 	              (unsigned long long)st_frozen.triangles, (unsigned long long)st.triangles,
 	              (unsigned long long)st_moved.triangles);
-	assert_true(st.triangles > 0);
-	assert_int_equal(st_frozen.triangles, st.triangles);
-	assert_true(st_moved.triangles != st.triangles);
+	if (counts) {
+		assert_true(st.triangles > 0);
+		assert_int_equal(st_frozen.triangles, st.triangles);
+		assert_true(st_moved.triangles != st.triangles);
+	}
 	struct comparison c = compare(&s, &moved, b.ref, frozen, b.finest, b.fw, b.fh);
 	print_message("frozen LOD from the moved camera: %u holes, max vertical error %.3f px over %u pixels\n",
 	              c.holes, c.worst_px, c.both);
