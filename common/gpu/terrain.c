@@ -110,6 +110,7 @@ struct draw_camera {
  * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
  * 18 the cache's use distances (patch_cache.h, pool.use_dist). */
 #define BINDINGS 19u
+#define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
 
 static VkDescriptorType binding_type(uint32_t i)
 {
@@ -175,6 +176,27 @@ static float skirt_depth(const struct relief_file *f, uint32_t id, const struct 
 	return 2.0f * (r->error + worst) + (float)f->layout.delta[f->hdr.levels - 1];
 }
 
+/* The device limits the terrain needs beyond Vulkan's guaranteed minimums: every stage
+ * sees the one descriptor set's STORAGE_BUFFERS storage buffers (the minimum per stage is 4;
+ * desktop GPUs and lavapipe take thousands), and a frame may issue max_draws draw records.
+ * -ENOTSUP, naming the limit, where the device has less. */
+static int check_limits(struct relief_vk *vk, uint32_t max_draws)
+{
+	const VkPhysicalDeviceLimits *l = &vk->props.limits;
+	const struct { const char *name; uint32_t have, need; } req[] = {
+		{ "maxPerStageDescriptorStorageBuffers", l->maxPerStageDescriptorStorageBuffers, STORAGE_BUFFERS },
+		{ "maxDescriptorSetStorageBuffers", l->maxDescriptorSetStorageBuffers, STORAGE_BUFFERS },
+		{ "maxDrawIndirectCount", l->maxDrawIndirectCount, max_draws },
+	};
+	for (size_t i = 0; i < sizeof(req) / sizeof(req[0]); i++)
+		if (req[i].have < req[i].need) {
+			relief_log(&vk->log, RELIEF_LOG_ERROR, "terrain: the device's %s is %u, the terrain needs %u",
+			           req[i].name, req[i].have, req[i].need);
+			return -ENOTSUP;
+		}
+	return 0;
+}
+
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
                           const struct relief_vk_target *target, struct relief_terrain **out)
 {
@@ -194,13 +216,9 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	t->max_quads = t->max_patches * (t->per_patch + 4 * t->blocks);
 	t->max_draws = (t->max_quads + t->per_draw - 1) / t->per_draw;
 
-	int ret;
-	if (t->max_draws > vk->props.limits.maxDrawIndirectCount) {
-		relief_log(&vk->log, RELIEF_LOG_ERROR, "terrain: %u draw records per frame, the device takes %u",
-		           t->max_draws, vk->props.limits.maxDrawIndirectCount);
-		ret = -ENOTSUP;
+	int ret = check_limits(vk, t->max_draws);
+	if (ret < 0)
 		goto fail;
-	}
 	ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
 	                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
 	if (ret < 0)
@@ -321,7 +339,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(struct draw_camera), storage, true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * (BINDINGS - 2) },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {

@@ -1,12 +1,14 @@
 /* Compute LOD, the selection: the GPU equals the CPU reference (common/lod.c) on the same
  * camera over poses that stress it (grazing, inside the terrain, far away, looking at a
  * patch corner); requests look ahead; several views share one cache; a tight cache settles;
- * a frozen level of detail seen from elsewhere; view checks and axes. Validation layer on,
- * zero messages. */
+ * a frozen level of detail seen from elsewhere; view checks and axes; device limits the
+ * terrain needs. Validation layer on, zero messages. */
 #include <assert.h>
 #include <errno.h>
 #include <math.h>
 #include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "gpu_test.h"
@@ -515,6 +517,52 @@ static void test_frozen_lod(void **state)
 	bound_close(&b);
 }
 
+static char limit_message[256];
+
+static void keep_error(void *data, enum relief_log_level level, const char *fmt, va_list ap)
+{
+	if (level == RELIEF_LOG_ERROR)
+		vsnprintf(limit_message, sizeof(limit_message), fmt, ap);
+}
+
+/* A device with less of a limit than the terrain needs beyond Vulkan's minimums is refused
+ * with the limit's name and the need (check_limits() in terrain.c); with exactly the need,
+ * the terrain is made. The limits are lowered in the context's copy of the device's. */
+static void test_device_limits_named(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_LUX, 1.0, 64, 64);
+	const VkPhysicalDeviceLimits saved = vk->props.limits;
+	const struct relief_logger saved_log = vk->log;
+	struct { const char *name; uint32_t *limit; } cases[] = {
+		{ "maxPerStageDescriptorStorageBuffers", &vk->props.limits.maxPerStageDescriptorStorageBuffers },
+		{ "maxDescriptorSetStorageBuffers", &vk->props.limits.maxDescriptorSetStorageBuffers },
+		{ "maxDrawIndirectCount", &vk->props.limits.maxDrawIndirectCount },
+	};
+	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+		vk->log = (struct relief_logger){ keep_error, NULL };
+		struct relief_terrain *t = NULL;
+		*cases[i].limit = 0;
+		limit_message[0] = '\0';
+		assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &t), -ENOTSUP);
+		assert_null(t);
+		print_message("limit 0: %s\n", limit_message);
+		assert_non_null(strstr(limit_message, cases[i].name));
+		const char *need = strstr(limit_message, "needs ");
+		assert_non_null(need);
+		uint32_t n = (uint32_t)strtoul(need + 6, NULL, 10);
+		assert_true(n >= 1);
+		*cases[i].limit = n - 1;
+		assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &t), -ENOTSUP);
+		vk->log = saved_log; /* nothing more is refused */
+		*cases[i].limit = n;
+		assert_int_equal(relief_terrain_create(vk, s.f, s.cache, &s.target, &t), 0);
+		relief_terrain_destroy(t);
+		vk->props.limits = saved;
+	}
+	scene_close(&s);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -526,6 +574,7 @@ int main(void)
 		cmocka_unit_test(test_near_detail_takes_layers),
 		cmocka_unit_test(test_tight_cache_settles),
 		cmocka_unit_test(test_frozen_lod),
+		cmocka_unit_test(test_device_limits_named),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }
