@@ -139,6 +139,9 @@ struct relief_terrain_view {
 	/* float[16], host-visible: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants) */
 	struct relief_vk_buffer camera;
+	/* The memory of the buffers above: device-local, host-visible (instances, counters,
+	 * wants, camera). */
+	struct relief_vk_buffer_group local, mapped;
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;
@@ -321,22 +324,26 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		return -ENOMEM;
 	v->t = t;
 	const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+	const VkBufferUsageFlags indirect = storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
+	const struct relief_vk_buffer_spec local[] = {
+		{ &v->split[0], 4 * t->count, storage },
+		{ &v->split[1], 4 * t->count, storage },
+		{ &v->cmds, 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
+		{ &v->drawn, 4 * t->count, storage },
+		{ &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage },
+		{ &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage },
+		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage },
+		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
+	};
+	const struct relief_vk_buffer_spec mapped[] = {
+		{ &v->instances, sizeof(struct instance) * t->max_patches, storage },
+		{ &v->counters, sizeof(struct counters), indirect },
+		{ &v->wants, sizeof(struct want) * WANT_CAP, storage },
+		{ &v->camera, sizeof(struct draw_camera), storage },
+	};
 	int ret;
-	if ((ret = relief_vk_buffer_init(vk, &v->split[0], 4 * t->count, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->split[1], 4 * t->count, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->instances, sizeof(struct instance) * t->max_patches, storage, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->cmds, 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1),
-	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->counters, sizeof(struct counters),
-	                                 storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->wants, sizeof(struct want) * WANT_CAP, storage, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->drawn, 4 * t->count, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage,
-	                                 false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage, false)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &v->camera, sizeof(struct draw_camera), storage, true)) < 0)
+	if ((ret = relief_vk_buffer_group_init(vk, &v->local, local, sizeof(local) / sizeof(local[0]), false)) < 0 ||
+	    (ret = relief_vk_buffer_group_init(vk, &v->mapped, mapped, sizeof(mapped) / sizeof(mapped[0]), true)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
@@ -420,6 +427,8 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);
+	relief_vk_buffer_group_finish(vk, &v->local);
+	relief_vk_buffer_group_finish(vk, &v->mapped);
 	free(v);
 }
 

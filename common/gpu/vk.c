@@ -296,6 +296,7 @@ int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **ou
 	if (opts->log)
 		vk->log = *opts->log;
 	atomic_init(&vk->validation_messages, 0);
+	atomic_init(&vk->allocations, 0);
 	vk->validation = env_flag("RELIEF_VALIDATION", opts->validation);
 	vk->gpu_av = vk->validation && env_flag("RELIEF_GPU_AV", false);
 

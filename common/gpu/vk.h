@@ -66,6 +66,10 @@ struct relief_vk {
 	/* Validation-layer messages of severity warning or error since creation. Tests assert it
 	 * stays 0. Written from the layer's callback, hence atomic. */
 	atomic_uint validation_messages;
+	/* Device memory allocations alive (common/gpu/vk_mem.c makes and frees them all). A
+	 * device may allow as few as 4,096 (maxMemoryAllocationCount), which a daemon drawing
+	 * many clients' views must stay well under. */
+	atomic_uint allocations;
 };
 
 int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **out);
@@ -117,7 +121,8 @@ const char *relief_vk_device_type_name(VkPhysicalDeviceType type);
 int relief_vk_memory_type(const struct relief_vk *vk, uint32_t type_bits,
                           VkMemoryPropertyFlags want, uint32_t *index);
 
-/* A buffer with its own allocation. Host-visible buffers stay mapped (`map`) and coherent. */
+/* A buffer with its own allocation, or one of a group's (memory VK_NULL_HANDLE then).
+ * Host-visible buffers stay mapped (`map`) and coherent. */
 struct relief_vk_buffer {
 	VkBuffer buffer;
 	VkDeviceMemory memory;
@@ -126,7 +131,25 @@ struct relief_vk_buffer {
 };
 int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
                           VkBufferUsageFlags usage, bool host_visible);
+/* Destroys the buffer, and frees its memory if it has its own. */
 void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
+
+/* Several buffers bound at aligned offsets of one allocation: a terrain view's dozen small
+ * buffers take two allocations (device-local, host-visible), not twelve. The group owns
+ * the memory; finish its buffers (relief_vk_buffer_finish()) before the group. */
+struct relief_vk_buffer_spec {
+	struct relief_vk_buffer *buffer;
+	VkDeviceSize size;
+	VkBufferUsageFlags usage;
+};
+struct relief_vk_buffer_group {
+	VkDeviceMemory memory;
+	VkDeviceSize size;
+};
+#define RELIEF_VK_BUFFER_GROUP_MAX 16u /* buffers per group (-EINVAL beyond) */
+int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_group *g,
+                                const struct relief_vk_buffer_spec *specs, size_t n, bool host_visible);
+void relief_vk_buffer_group_finish(struct relief_vk *vk, struct relief_vk_buffer_group *g);
 
 /* A 2D (array) image with its own allocation and one view over all layers, of view_type
  * VK_IMAGE_VIEW_TYPE_2D or VK_IMAGE_VIEW_TYPE_2D_ARRAY. */

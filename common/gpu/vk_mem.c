@@ -1,5 +1,7 @@
-/* Buffers, images and shader modules, each with its own allocation. Fine for the small
- * number of long-lived objects relief keeps (pools, staging, targets); not a suballocator. */
+/* Buffers, images and shader modules. Each image and each long-lived buffer (pools,
+ * staging, targets) has its own allocation; a terrain view's small buffers share two
+ * (relief_vk_buffer_group_init()), since a daemon keeps a view per client channel. Not a
+ * general suballocator: nothing is freed inside an allocation. */
 #include <errno.h>
 #include <string.h>
 
@@ -20,6 +22,7 @@ int relief_vk_memory_type(const struct relief_vk *vk, uint32_t type_bits, VkMemo
 static int allocate(struct relief_vk *vk, VkMemoryRequirements req, VkMemoryPropertyFlags want,
                     VkDeviceMemory *mem)
 {
+	*mem = VK_NULL_HANDLE;
 	uint32_t type;
 	int ret = relief_vk_memory_type(vk, req.memoryTypeBits, want, &type);
 	if (ret < 0) {
@@ -31,11 +34,27 @@ static int allocate(struct relief_vk *vk, VkMemoryRequirements req, VkMemoryProp
 		.allocationSize = req.size,
 		.memoryTypeIndex = type,
 	};
-	return relief_vk_check(vk, vkAllocateMemory(vk->device, &info, NULL, mem), "vkAllocateMemory");
+	ret = relief_vk_check(vk, vkAllocateMemory(vk->device, &info, NULL, mem), "vkAllocateMemory");
+	if (ret == 0)
+		atomic_fetch_add(&vk->allocations, 1);
+	return ret;
 }
 
-int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
-                          VkBufferUsageFlags usage, bool host_visible)
+static void release(struct relief_vk *vk, VkDeviceMemory mem)
+{
+	if (!mem)
+		return;
+	vkFreeMemory(vk->device, mem, NULL); /* unmaps implicitly */
+	atomic_fetch_sub(&vk->allocations, 1);
+}
+
+static VkMemoryPropertyFlags buffer_flags(bool host_visible)
+{
+	return host_visible ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+	                    : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+}
+
+static int buffer_create(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size, VkBufferUsageFlags usage)
 {
 	memset(b, 0, sizeof(*b));
 	b->size = size;
@@ -45,15 +64,18 @@ int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDe
 		.usage = usage,
 		.sharingMode = VK_SHARING_MODE_EXCLUSIVE,
 	};
-	int ret = relief_vk_check(vk, vkCreateBuffer(vk->device, &info, NULL, &b->buffer), "vkCreateBuffer");
+	return relief_vk_check(vk, vkCreateBuffer(vk->device, &info, NULL, &b->buffer), "vkCreateBuffer");
+}
+
+int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
+                          VkBufferUsageFlags usage, bool host_visible)
+{
+	int ret = buffer_create(vk, b, size, usage);
 	if (ret < 0)
 		goto fail;
 	VkMemoryRequirements req;
 	vkGetBufferMemoryRequirements(vk->device, b->buffer, &req);
-	VkMemoryPropertyFlags want = host_visible
-		? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
-		: VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
-	if ((ret = allocate(vk, req, want, &b->memory)) < 0)
+	if ((ret = allocate(vk, req, buffer_flags(host_visible), &b->memory)) < 0)
 		goto fail;
 	ret = relief_vk_check(vk, vkBindBufferMemory(vk->device, b->buffer, b->memory, 0), "vkBindBufferMemory");
 	if (ret < 0)
@@ -76,9 +98,57 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
 		return;
 	if (b->buffer)
 		vkDestroyBuffer(vk->device, b->buffer, NULL);
-	if (b->memory)
-		vkFreeMemory(vk->device, b->memory, NULL); /* unmaps implicitly */
+	release(vk, b->memory);
 	memset(b, 0, sizeof(*b));
+}
+
+int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_group *g,
+                                const struct relief_vk_buffer_spec *specs, size_t n, bool host_visible)
+{
+	memset(g, 0, sizeof(*g));
+	if (n > RELIEF_VK_BUFFER_GROUP_MAX)
+		return -EINVAL;
+	for (size_t i = 0; i < n; i++)
+		memset(specs[i].buffer, 0, sizeof(*specs[i].buffer));
+	/* Offsets: each buffer at its own alignment after the previous one. */
+	VkDeviceSize offsets[RELIEF_VK_BUFFER_GROUP_MAX];
+	VkMemoryRequirements all = { .size = 0, .alignment = 1, .memoryTypeBits = ~0u };
+	int ret = 0;
+	for (size_t i = 0; i < n; i++) {
+		if ((ret = buffer_create(vk, specs[i].buffer, specs[i].size, specs[i].usage)) < 0)
+			break;
+		VkMemoryRequirements req;
+		vkGetBufferMemoryRequirements(vk->device, specs[i].buffer->buffer, &req);
+		offsets[i] = (all.size + req.alignment - 1) / req.alignment * req.alignment;
+		all.size = offsets[i] + req.size;
+		all.alignment = req.alignment > all.alignment ? req.alignment : all.alignment;
+		all.memoryTypeBits &= req.memoryTypeBits;
+	}
+	if (ret == 0 && (ret = allocate(vk, all, buffer_flags(host_visible), &g->memory)) == 0)
+		g->size = all.size;
+	void *base = NULL;
+	if (ret == 0 && host_visible)
+		ret = relief_vk_check(vk, vkMapMemory(vk->device, g->memory, 0, VK_WHOLE_SIZE, 0, &base), "vkMapMemory");
+	for (size_t i = 0; i < n && ret == 0; i++) {
+		ret = relief_vk_check(vk, vkBindBufferMemory(vk->device, specs[i].buffer->buffer, g->memory, offsets[i]),
+		                      "vkBindBufferMemory");
+		if (base)
+			specs[i].buffer->map = (char *)base + offsets[i];
+	}
+	if (ret < 0) {
+		for (size_t i = 0; i < n; i++)
+			relief_vk_buffer_finish(vk, specs[i].buffer);
+		relief_vk_buffer_group_finish(vk, g);
+	}
+	return ret;
+}
+
+void relief_vk_buffer_group_finish(struct relief_vk *vk, struct relief_vk_buffer_group *g)
+{
+	if (!g)
+		return;
+	release(vk, g->memory);
+	memset(g, 0, sizeof(*g));
 }
 
 static VkImageCreateInfo image_info(VkFormat format, uint32_t width, uint32_t height, uint32_t layers,
@@ -156,8 +226,7 @@ void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img)
 		vkDestroyImageView(vk->device, img->view, NULL);
 	if (img->image)
 		vkDestroyImage(vk->device, img->image, NULL);
-	if (img->memory)
-		vkFreeMemory(vk->device, img->memory, NULL);
+	release(vk, img->memory);
 	memset(img, 0, sizeof(*img));
 }
 

@@ -1,8 +1,8 @@
 /* Compute LOD, the selection: the GPU equals the CPU reference (common/lod.c) on the same
  * camera over poses that stress it (grazing, inside the terrain, far away, looking at a
  * patch corner); requests look ahead; several views share one cache; a tight cache settles;
- * a frozen level of detail seen from elsewhere; view checks and axes; device limits the
- * terrain needs. Validation layer on, zero messages. */
+ * a frozen level of detail seen from elsewhere; view checks and axes; a view's memory
+ * allocations; device limits the terrain needs. Validation layer on, zero messages. */
 #include <assert.h>
 #include <errno.h>
 #include <math.h>
@@ -517,6 +517,27 @@ static void test_frozen_lod(void **state)
 	bound_close(&b);
 }
 
+/* A view's buffers share two device memory allocations (device-local and host-visible), so
+ * that a daemon keeping a view per client channel stays far below the 4,096 allocations a
+ * device may allow; they used to take twelve. Its frames are unchanged (every LOD test
+ * draws through such views). */
+static void test_view_allocations(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_LUX, 1.0, 64, 64);
+	unsigned before = atomic_load(&vk->allocations);
+	struct relief_terrain_view *views[3];
+	for (int i = 0; i < 3; i++)
+		assert_int_equal(relief_terrain_view_create(s.terrain, &views[i]), 0);
+	unsigned with = atomic_load(&vk->allocations);
+	print_message("three more views: %u device memory allocations, %u before\n", with, before);
+	assert_int_equal(with, before + 3 * 2);
+	for (int i = 0; i < 3; i++)
+		relief_terrain_view_destroy(views[i]);
+	assert_int_equal(atomic_load(&vk->allocations), before);
+	scene_close(&s);
+}
+
 static char limit_message[256];
 
 static void keep_error(void *data, enum relief_log_level level, const char *fmt, va_list ap)
@@ -574,6 +595,7 @@ int main(void)
 		cmocka_unit_test(test_near_detail_takes_layers),
 		cmocka_unit_test(test_tight_cache_settles),
 		cmocka_unit_test(test_frozen_lod),
+		cmocka_unit_test(test_view_allocations),
 		cmocka_unit_test(test_device_limits_named),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
