@@ -381,11 +381,10 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 	p->opts = opts;
 	struct relief_pack_stats st = { 0 };
 	uint32_t levels = relief_layout_levels_for(opts->patch, dem->width, dem->height);
-	if (levels > RELIEF_MAX_LEVELS || (ret = relief_layout_init(&p->lay, opts->patch, levels, opts->ratio,
-	                                                            opts->tolerance)) < 0) {
-		ret = -EINVAL;
+	ret = levels > RELIEF_MAX_LEVELS ? -EINVAL
+	                                 : relief_layout_init(&p->lay, opts->patch, levels, opts->ratio, opts->tolerance);
+	if (ret < 0)
 		goto out;
-	}
 	double hmax = 0;
 	uint64_t valid = 0;
 	for (size_t i = 0; i < (size_t)dem->width * dem->height; i++)
