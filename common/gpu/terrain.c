@@ -525,8 +525,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	 * blocks there, with a margin for the rounding of drawn heights) is conservative;
 	 * lod_commands.comp decides from the blocks actually drawn around the eye and splits
 	 * the draw count between the two pipelines, which needs vkCmdDrawIndirectCount. */
-	const double ground = relief_surface_height_bound(f, view->eye.x, view->eye.y);
-	const bool cpu_cull = !opts->no_face_cull && view->eye.z > ground + FACE_CULL_MARGIN;
+	const bool cpu_cull = !opts->no_face_cull &&
+	                      view->eye.z > relief_surface_height_bound(f, view->eye.x, view->eye.y) + FACE_CULL_MARGIN;
 	const bool gpu_cull = !opts->no_face_cull && vk->has.draw_indirect_count;
 	struct commands_push cp = {
 		t->per_patch, t->blocks, t->per_draw, t->max_draws, cpu_cull, (float)FACE_CULL_MARGIN
