@@ -223,7 +223,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	if (ret < 0)
 		goto fail;
 	ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
-	                                VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+	                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
 	if (ret < 0)
 		goto fail;
 	struct patch_info *info = t->info.map;

@@ -146,7 +146,7 @@ struct relief_vk_buffer_group {
 	VkDeviceMemory memory;
 	VkDeviceSize size;
 };
-#define RELIEF_VK_BUFFER_GROUP_MAX 16u /* buffers per group (-EINVAL beyond) */
+#define RELIEF_VK_BUFFER_GROUP_MAX 16u /* buffers per group (-EINVAL beyond, and for none) */
 int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_group *g,
                                 const struct relief_vk_buffer_spec *specs, size_t n, bool host_visible);
 void relief_vk_buffer_group_finish(struct relief_vk *vk, struct relief_vk_buffer_group *g);

@@ -106,7 +106,7 @@ int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_gr
                                 const struct relief_vk_buffer_spec *specs, size_t n, bool host_visible)
 {
 	memset(g, 0, sizeof(*g));
-	if (n > RELIEF_VK_BUFFER_GROUP_MAX)
+	if (n == 0 || n > RELIEF_VK_BUFFER_GROUP_MAX)
 		return -EINVAL;
 	for (size_t i = 0; i < n; i++)
 		memset(specs[i].buffer, 0, sizeof(*specs[i].buffer));
