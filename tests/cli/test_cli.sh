@@ -186,12 +186,13 @@ expect_text fly-summary "3 frames of 2 channel(s)"
 expect_text fly-summary-levels "last frame         patches drawn per level 0..3:"
 [ "$(ls "$tmp/fly" | wc -l)" -eq 6 ] || { echo "FAIL fly frames written: $(ls "$tmp/fly")"; fails=$((fails + 1)); }
 # The tools' own Vulkan paths under the validation layer (they exit 1 on any message): two
-# morphed channels from a 2 MiB cache (patches evicted while flying, two workers), and a
-# wireframe snap with its depth file under GPU-assisted validation too.
+# morphed channels from a 2 MiB cache with two workers, and a wireframe snap with its depth
+# file under GPU-assisted validation too. Whether the flight evicts depends on how fast the
+# workers are (frames never wait; the sanitizer build's often do not fill the cache in 9
+# frames), so it is not asserted here: test_patch_cache checks eviction under validation.
 vkcheck fly-validated 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 8 --channels 2 --size 48x32 \
 	--morph --budget 2 --workers 2 --validation
-if grep -qE ' [1-9][0-9]* evicted, 0 bad' <<<"$LAST_OUT"; then passes=$((passes + 1)); else
-	echo "FAIL fly-validated evicted nothing: $LAST_OUT"; fails=$((fails + 1)); fi
+expect_text fly-validated-summary "9 frames of 2 channel(s)"
 RELIEF_GPU_AV=1 vkcheck snap-validated 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 \
 	--look 128480,79200,3000 --size 96x54 -o "$tmp/v.png" --depth "$tmp/v.f32" --wire --morph --validation
 printf '0 60000 40000 3000 45 -10 0\n0 61000 41000 3000 90 -10 0\n' >"$tmp/bad.track"
