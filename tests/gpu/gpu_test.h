@@ -37,10 +37,10 @@ static inline struct relief_vk *gpu_test_context(void)
 }
 
 /* Whether draws are counted (pipeline statistics: triangles, invocations), which some
- * checks compare.
- * Not under GPU-assisted validation (struct relief_vk's gpu_av): scripts/test runs those
- * checks in its normal pass and the GPU tests once more with RELIEF_GPU_AV for the layer's
- * messages. Says so once per test program when it skips them. */
+ * checks compare. Not under GPU-assisted validation (struct relief_vk's gpu_av): scripts/test
+ * runs those checks in its normal passes, where it fails if any program printed the line
+ * below, and the GPU tests once more with RELIEF_GPU_AV for the layer's messages. Says so
+ * once per test program when it skips them. */
 static inline bool gpu_test_has_statistics(const struct relief_vk *vk)
 {
 	static bool said;
