@@ -109,9 +109,16 @@ static void describe_device(VkPhysicalDevice phys, bool drm_ext, struct relief_v
 		d->render_major = drm.renderMajor;
 		d->render_minor = drm.renderMinor;
 	}
+	/* The render target's reversed-Z depth is 32-bit float and read back (target.c); Vulkan
+	 * guarantees a depth attachment in D32_SFLOAT or X8_D24_UNORM_PACK32, not both. */
+	VkFormatProperties depth;
+	vkGetPhysicalDeviceFormatProperties(phys, VK_FORMAT_D32_SFLOAT, &depth);
+	const VkFormatFeatureFlags need =
+		VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_FORMAT_FEATURE_TRANSFER_SRC_BIT;
 	uint32_t family, ts;
 	d->usable = props.properties.apiVersion >= VK_API_VERSION_1_2 && feats.tessellationShader &&
-	            feats.multiDrawIndirect && pick_queue_family(phys, &family, &ts) == 0;
+	            feats.multiDrawIndirect && (depth.optimalTilingFeatures & need) == need &&
+	            pick_queue_family(phys, &family, &ts) == 0;
 }
 
 static int create_instance(struct relief_vk *vk)
@@ -208,7 +215,7 @@ static int choose_device(struct relief_vk *vk, const char *want)
 	ret = relief_vk_pick_device(desc, n, &query, &index);
 	if (ret < 0) {
 		relief_log(&vk->log, RELIEF_LOG_ERROR, "no usable Vulkan device%s%s (%u found; need Vulkan 1.2, "
-		           "tessellation, multi-draw indirect, a graphics+compute queue)", want && *want ? " matches " : "",
+		           "tessellation, multi-draw indirect, a D32_SFLOAT depth attachment, a graphics+compute queue)", want && *want ? " matches " : "",
 		           want && *want ? want : "", n);
 		goto out;
 	}

@@ -89,7 +89,8 @@ struct relief_vk_device_desc {
 	VkPhysicalDeviceType type;
 	bool has_render_node; /* VK_EXT_physical_device_drm reported a render node */
 	int64_t render_major, render_minor;
-	bool usable; /* API >= 1.2, a graphics+compute queue, tessellation shaders, multiDrawIndirect */
+	bool usable; /* API >= 1.2, a graphics+compute queue, tessellation shaders, multiDrawIndirect,
+	              * a D32_SFLOAT depth attachment that can be copied out */
 };
 
 enum relief_vk_query_kind {
