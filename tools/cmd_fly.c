@@ -75,19 +75,19 @@ struct fly_stats {
 };
 
 /* Adds the levels of the patches view tv drew in its last frame to levels[]. */
-static int count_levels(const struct relief_file *f, const struct relief_terrain_view *tv, uint32_t *levels)
+static int count_levels(const struct relief_file *f, struct relief_terrain_view *tv, uint32_t *levels)
 {
 	uint32_t *ids = malloc(sizeof(uint32_t) * f->hdr.patch_count);
 	if (!ids)
 		return -ENOMEM;
-	uint32_t n = relief_terrain_view_drawn(tv, ids, f->hdr.patch_count);
-	for (uint32_t k = 0; k < n; k++) {
+	int n = relief_terrain_view_drawn(tv, ids, f->hdr.patch_count);
+	for (int k = 0; k < n; k++) {
 		uint32_t l, px, py;
 		if (relief_patch_coords(&f->layout, ids[k], &l, &px, &py))
 			levels[l]++;
 	}
 	free(ids);
-	return 0;
+	return n < 0 ? n : 0;
 }
 
 int cmd_fly(int argc, char **argv)

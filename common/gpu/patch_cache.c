@@ -118,20 +118,22 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	                                VK_IMAGE_VIEW_TYPE_2D_ARRAY, POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->block_floats * sizeof(float),
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-	                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, false)) < 0 ||
+	                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, RELIEF_VK_MEMORY_DEVICE)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->staging, (VkDeviceSize)c->o.staging_slots * c->slot_ints * 4,
 	                                 VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-	                                 true)) < 0 ||
+	                                 RELIEF_VK_MEMORY_UPLOAD)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->flags, sizeof(uint32_t) * c->o.staging_slots,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, RELIEF_VK_MEMORY_READBACK)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->layer_table, sizeof(int32_t) * c->count,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, RELIEF_VK_MEMORY_SHARED)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->jobs, sizeof(struct job_params) * IN_FLIGHT * MAX_BATCH,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true)) < 0 ||
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, RELIEF_VK_MEMORY_UPLOAD)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->use_table, sizeof(uint32_t) * c->count,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0 ||
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 RELIEF_VK_MEMORY_READBACK)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->use_dist, 2 * sizeof(uint32_t) * c->count,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0)
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 RELIEF_VK_MEMORY_READBACK)) < 0)
 		goto fail;
 	/* -1: nothing resident */
 	memset(c->layer, 0xff, sizeof(int32_t) * c->count);

@@ -62,8 +62,12 @@ struct relief_patch_cache {
 
 	/* GPU objects */
 	struct relief_vk_image heights, normals;
+	/* Memory by use (relief_vk_memory_pick()): errors on the device; staging and jobs
+	 * uploads; the layer table shared (the CPU edits it, every view's selection reads all
+	 * of it each frame); flags and the use tables read back (a frame stamps only the
+	 * patches it touches; the CPU scans them when it evicts). */
 	struct relief_vk_buffer errors, staging, flags, layer_table, use_table, use_dist;
-	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH], host-visible */
+	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH] */
 	VkBufferView staging_view;    /* the staging buffer as R32_SINT texels (see patch_gpu.c) */
 	VkDescriptorSetLayout set_layout;
 	VkDescriptorPool descriptor_pool;

@@ -352,7 +352,8 @@ int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, 
 	struct relief_vk *vk = c->vk;
 	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->block_floats * sizeof(float);
 	struct relief_vk_buffer out;
-	int ret = relief_vk_buffer_init(vk, &out, hb + nb + eb, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+	int ret = relief_vk_buffer_init(vk, &out, hb + nb + eb, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                RELIEF_VK_MEMORY_READBACK);
 	if (ret < 0)
 		return ret;
 	VkCommandBuffer cmd;

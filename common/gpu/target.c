@@ -82,8 +82,8 @@ int relief_vk_target_init(struct relief_vk *vk, struct relief_vk_target *t, uint
 	    (ret = relief_vk_image_init(vk, &t->depth, VK_FORMAT_D32_SFLOAT, width, height, 1, VK_IMAGE_VIEW_TYPE_2D,
 	                                VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
 	                                VK_IMAGE_ASPECT_DEPTH_BIT)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &t->color_readback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &t->depth_readback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, true)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &t->color_readback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, RELIEF_VK_MEMORY_READBACK)) < 0 ||
+	    (ret = relief_vk_buffer_init(vk, &t->depth_readback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, RELIEF_VK_MEMORY_READBACK)) < 0 ||
 	    (ret = create_pass(vk, t)) < 0)
 		goto fail;
 	VkImageView views[2] = { t->color.view, t->depth.view };

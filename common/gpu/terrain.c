@@ -136,12 +136,15 @@ struct relief_terrain {
 struct relief_terrain_view {
 	struct relief_terrain *t;
 	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains;
-	/* float[16], host-visible: the view-projection positions are drawn with (the LOD's own
-	 * matrix is in the push constants) */
+	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
+	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;
-	/* The memory of the buffers above: device-local, host-visible (instances, counters,
-	 * wants, camera). */
-	struct relief_vk_buffer_group local, mapped;
+	/* What the CPU reads after a frame, copied there at its end: counters and requests */
+	struct relief_vk_buffer read_counters, read_wants;
+	/* The memory of the buffers above: device (all but the last two), readback (those two).
+	 * Nothing the device reads or updates every frame lives in memory the CPU maps, which
+	 * on a discrete GPU is system memory across the bus. */
+	struct relief_vk_buffer_group local, readback;
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;
@@ -222,17 +225,25 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	int ret = check_limits(vk, t->max_draws);
 	if (ret < 0)
 		goto fail;
-	ret = relief_vk_buffer_init(vk, &t->info, sizeof(struct patch_info) * t->count + sizeof(float) * 16,
-	                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-	if (ret < 0)
+	/* Every frame's selection reads it: device memory, filled once. */
+	struct patch_info *info = malloc(sizeof(*info) * t->count);
+	if (!info) {
+		ret = -ENOMEM;
 		goto fail;
-	struct patch_info *info = t->info.map;
+	}
 	for (uint32_t id = 0; id < t->count; id++) {
 		struct relief_patch_record r;
 		relief_file_record(f, id, &r);
 		bool empty = r.flags & RELIEF_PATCH_EMPTY;
 		info[id] = (struct patch_info){ r.height_min, r.height_max, r.error, empty ? -1.0f : skirt_depth(f, id, &r) };
 	}
+	if ((ret = relief_vk_buffer_init(vk, &t->info, sizeof(*info) * t->count,
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 RELIEF_VK_MEMORY_DEVICE)) == 0)
+		ret = relief_vk_buffer_upload(vk, &t->info, info, sizeof(*info) * t->count);
+	free(info);
+	if (ret < 0)
+		goto fail;
 
 	VkDescriptorSetLayoutBinding b[BINDINGS];
 	for (uint32_t i = 0; i < BINDINGS; i++)
@@ -325,25 +336,30 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	v->t = t;
 	const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
 	const VkBufferUsageFlags indirect = storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
+	const VkBufferUsageFlags read = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
 	const struct relief_vk_buffer_spec local[] = {
 		{ &v->split[0], 4 * t->count, storage },
 		{ &v->split[1], 4 * t->count, storage },
+		{ &v->instances, sizeof(struct instance) * t->max_patches, storage | read },
 		{ &v->cmds, 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
+		{ &v->counters, sizeof(struct counters), indirect | read },
+		{ &v->wants, sizeof(struct want) * WANT_CAP, storage | read },
 		{ &v->drawn, 4 * t->count, storage },
 		{ &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage },
 		{ &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage },
 		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage },
 		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
-	};
-	const struct relief_vk_buffer_spec mapped[] = {
-		{ &v->instances, sizeof(struct instance) * t->max_patches, storage },
-		{ &v->counters, sizeof(struct counters), indirect },
-		{ &v->wants, sizeof(struct want) * WANT_CAP, storage },
 		{ &v->camera, sizeof(struct draw_camera), storage },
 	};
+	const struct relief_vk_buffer_spec readback[] = {
+		{ &v->read_counters, sizeof(struct counters), VK_BUFFER_USAGE_TRANSFER_DST_BIT },
+		{ &v->read_wants, sizeof(struct want) * WANT_CAP, VK_BUFFER_USAGE_TRANSFER_DST_BIT },
+	};
 	int ret;
-	if ((ret = relief_vk_buffer_group_init(vk, &v->local, local, sizeof(local) / sizeof(local[0]), false)) < 0 ||
-	    (ret = relief_vk_buffer_group_init(vk, &v->mapped, mapped, sizeof(mapped) / sizeof(mapped[0]), true)) < 0)
+	if ((ret = relief_vk_buffer_group_init(vk, &v->local, local, sizeof(local) / sizeof(local[0]),
+	                                       RELIEF_VK_MEMORY_DEVICE)) < 0 ||
+	    (ret = relief_vk_buffer_group_init(vk, &v->readback, readback, sizeof(readback) / sizeof(readback[0]),
+	                                       RELIEF_VK_MEMORY_READBACK)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[2] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
@@ -427,8 +443,10 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);
+	relief_vk_buffer_finish(vk, &v->read_counters);
+	relief_vk_buffer_finish(vk, &v->read_wants);
 	relief_vk_buffer_group_finish(vk, &v->local);
-	relief_vk_buffer_group_finish(vk, &v->mapped);
+	relief_vk_buffer_group_finish(vk, &v->readback);
 	free(v);
 }
 
@@ -500,12 +518,12 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		.ratio = f->hdr.ratio,
 	};
 	relief_view_matrix(lod, sp.vp);
-	struct draw_camera *camera = v->camera.map;
-	relief_view_matrix_from(view, lod->eye, camera->vp);
-	camera->eye[0] = (float)(view->eye.x - lod->eye.x);
-	camera->eye[1] = (float)(view->eye.y - lod->eye.y);
-	camera->eye[2] = (float)view->eye.z;
-	camera->eye[3] = 0.0f;
+	struct draw_camera camera;
+	relief_view_matrix_from(view, lod->eye, camera.vp);
+	camera.eye[0] = (float)(view->eye.x - lod->eye.x);
+	camera.eye[1] = (float)(view->eye.y - lod->eye.y);
+	camera.eye[2] = (float)view->eye.z;
+	camera.eye[3] = 0.0f;
 	struct draw_push dp = {
 		.viewport = { (float)lod->width, (float)lod->height },
 		.tau = (float)lod->tau,
@@ -546,6 +564,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	vkCmdUpdateBuffer(cmd, v->camera.buffer, 0, sizeof(camera), &camera);
 	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
@@ -556,7 +575,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (reset)
 		vkCmdFillBuffer(cmd, relief_patch_cache_pool(t->cache)->use_dist, (VkDeviceSize)half * 4 * t->count,
 		                (VkDeviceSize)4 * t->count, UINT32_MAX);
-	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	/* The camera is read by compute and by the evaluation shader. */
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	VkDescriptorSet set = v->set[v->parity];
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select_layout, 0, 1, &set, 0, NULL);
@@ -613,7 +634,14 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 			vkCmdEndQuery(cmd, t->stats_pool, 0);
 	}
 	relief_vk_target_end(target, cmd);
-	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+	/* The counters and requests to where the CPU reads them. */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+	        VK_ACCESS_TRANSFER_READ_BIT);
+	vkCmdCopyBuffer(cmd, v->counters.buffer, v->read_counters.buffer, 1,
+	                &(VkBufferCopy){ 0, 0, sizeof(struct counters) });
+	vkCmdCopyBuffer(cmd, v->wants.buffer, v->read_wants.buffer, 1,
+	                &(VkBufferCopy){ 0, 0, sizeof(struct want) * WANT_CAP });
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
 	        VK_ACCESS_HOST_READ_BIT);
 	if (t->timer.pool)
 		relief_vk_timer_write(&t->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
@@ -621,7 +649,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 		return ret;
 	v->parity ^= 1;
 
-	const struct counters *c = v->counters.map;
+	const struct counters *c = v->read_counters.map;
 	struct relief_terrain_stats s = {
 		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
 		.face_culled = gpu_cull ? c->face_culled != 0 : cpu_cull,
@@ -643,7 +671,7 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	static_assert(WANT_CAP * sizeof(struct want) <= 16384, "the copy below lives on the stack");
 	struct want want[WANT_CAP];
 	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
-	memcpy(want, v->wants.map, n * sizeof(*want)); /* mapped memory may be uncached */
+	memcpy(want, v->read_wants.map, n * sizeof(*want)); /* sorted in place below */
 	qsort(want, n, sizeof(*want), want_cmp);
 	for (uint32_t i = 0; i < n; i++)
 		if (want[i].id < f->hdr.patch_count)
@@ -653,19 +681,42 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	return 0;
 }
 
-uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
+int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
 {
-	const struct instance *in = v->instances.map;
+	struct relief_vk *vk = v->t->vk;
 	uint32_t n = v->last_drawn < cap ? v->last_drawn : cap;
-	for (uint32_t i = 0; i < n; i++)
-		ids[i] = in[i].id;
-	return n;
+	if (n == 0)
+		return 0;
+	/* The instances stay in device memory: copied out on demand, not every frame. */
+	struct relief_vk_buffer out;
+	VkDeviceSize bytes = sizeof(struct instance) * n;
+	int ret = relief_vk_buffer_init(vk, &out, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, RELIEF_VK_MEMORY_READBACK);
+	if (ret < 0)
+		return ret;
+	VkCommandBuffer cmd;
+	if ((ret = relief_vk_cmd_begin(vk, &cmd)) == 0) {
+		/* The last frame's selection wrote them (that frame was waited for). */
+		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+		        VK_ACCESS_TRANSFER_READ_BIT);
+		vkCmdCopyBuffer(cmd, v->instances.buffer, out.buffer, 1, &(VkBufferCopy){ 0, 0, bytes });
+		barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+		        VK_ACCESS_HOST_READ_BIT);
+		ret = relief_vk_cmd_submit_wait(vk, cmd);
+	}
+	if (ret == 0) {
+		const struct instance *in = out.map;
+		for (uint32_t i = 0; i < n; i++)
+			ids[i] = in[i].id;
+		ret = (int)n;
+	}
+	relief_vk_buffer_finish(vk, &out);
+	return ret;
 }
 
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
 {
-	const struct counters *c = v->counters.map;
-	const struct want *w = v->wants.map;
+	const struct counters *c = v->read_counters.map;
+	const struct want *w = v->read_wants.map;
 	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
 	n = n < cap ? n : cap;
 	for (uint32_t i = 0; i < n; i++)

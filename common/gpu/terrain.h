@@ -72,8 +72,9 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
                         struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
                         struct relief_terrain_stats *st);
 
-/* The last frame's drawn patch ids (unordered), for tests; returns the count. */
-uint32_t relief_terrain_view_drawn(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);
+/* The last frame's drawn patch ids (unordered), at most cap, for tests and statistics:
+ * copied out of device memory and waited for. Returns the count or a negative errno. */
+int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);
 /* The last frame's requests (patch ids, unordered; at most the frame's cap), for tests;
  * returns the count. */
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

@@ -118,12 +118,35 @@ const char *relief_vk_device_type_name(VkPhysicalDeviceType type);
 
 /* ---- memory (vk_mem.c) ---- */
 
-/* Index of a memory type allowed by type_bits with all `want` flags, else -ENOMEM. */
-int relief_vk_memory_type(const struct relief_vk *vk, uint32_t type_bits,
-                          VkMemoryPropertyFlags want, uint32_t *index);
+/* What memory is for: who writes it, who reads it, how often. relief_vk_memory_pick()
+ * turns it into a memory type; on a discrete GPU the answers differ (video memory, system
+ * memory the CPU caches or not, the small window of video memory the CPU can map), on a
+ * unified-memory device or lavapipe they coincide. */
+enum relief_vk_memory_use {
+	RELIEF_VK_MEMORY_DEVICE,   /* the device alone: pools, images, per-view work buffers */
+	RELIEF_VK_MEMORY_UPLOAD,   /* the host writes, the device reads once: staging, job records */
+	RELIEF_VK_MEMORY_READBACK, /* the device writes, the host reads: frames, counters, requests */
+	RELIEF_VK_MEMORY_SHARED,   /* the host edits, the device reads or updates every frame: small tables */
+};
+
+/* The memory type for `use` among those allowed by type_bits, by rank:
+ * - never a type whose use needs a feature relief does not enable (protected memory,
+ *   VK_AMD_device_coherent_memory's device-coherent or uncached types: allocating one is
+ *   invalid without the feature, and some drivers list them first) or lazily allocated;
+ * - required: DEVICE_LOCAL for DEVICE (any allowed type if none is), HOST_VISIBLE and
+ *   HOST_COHERENT for the others (Vulkan guarantees such a type for every buffer);
+ * - preferred: DEVICE keeps off host-visible types (the mappable window of video memory is
+ *   small: 224 MiB of 8 GiB on one listed discrete GPU), UPLOAD off device-local ones (for
+ *   the same reason; the device reads each staged value once), READBACK on host-cached
+ *   ones (the CPU reads them: uncached reads are slow), SHARED on device-local ones (the
+ *   device reads them every frame, and updates some with atomics);
+ * - among equals, the lowest index (the driver's order).
+ * Pure, for unit tests with other devices' tables. 0, or -ENOMEM when no type qualifies. */
+int relief_vk_memory_pick(const VkPhysicalDeviceMemoryProperties *mem, uint32_t type_bits,
+                          enum relief_vk_memory_use use, uint32_t *index);
 
 /* A buffer with its own allocation, or one of a group's (memory VK_NULL_HANDLE then).
- * Host-visible buffers stay mapped (`map`) and coherent. */
+ * Buffers of every use but RELIEF_VK_MEMORY_DEVICE stay mapped (`map`) and coherent. */
 struct relief_vk_buffer {
 	VkBuffer buffer;
 	VkDeviceMemory memory;
@@ -131,13 +154,17 @@ struct relief_vk_buffer {
 	void *map;
 };
 int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
-                          VkBufferUsageFlags usage, bool host_visible);
+                          VkBufferUsageFlags usage, enum relief_vk_memory_use use);
+/* Copies `size` bytes from `data` to offset 0 of `b` (made with TRANSFER_DST usage) through
+ * a temporary upload buffer, and waits: for data a device-local buffer gets once. */
+int relief_vk_buffer_upload(struct relief_vk *vk, const struct relief_vk_buffer *b, const void *data,
+                            VkDeviceSize size);
 /* Destroys the buffer, and frees its memory if it has its own. */
 void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
 
-/* Several buffers bound at aligned offsets of one allocation: a terrain view's dozen small
- * buffers take two allocations (device-local, host-visible), not twelve. The group owns
- * the memory; finish its buffers (relief_vk_buffer_finish()) before the group. */
+/* Several buffers bound at aligned offsets of one allocation: a terrain view's fourteen
+ * buffers take two allocations (device, readback), not fourteen. The group owns the
+ * memory; finish its buffers (relief_vk_buffer_finish()) before the group. */
 struct relief_vk_buffer_spec {
 	struct relief_vk_buffer *buffer;
 	VkDeviceSize size;
@@ -149,7 +176,7 @@ struct relief_vk_buffer_group {
 };
 #define RELIEF_VK_BUFFER_GROUP_MAX 16u /* buffers per group (-EINVAL beyond, and for none) */
 int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_group *g,
-                                const struct relief_vk_buffer_spec *specs, size_t n, bool host_visible);
+                                const struct relief_vk_buffer_spec *specs, size_t n, enum relief_vk_memory_use use);
 void relief_vk_buffer_group_finish(struct relief_vk *vk, struct relief_vk_buffer_group *g);
 
 /* A 2D (array) image with its own allocation and one view over all layers, of view_type

@@ -1,5 +1,6 @@
-/* Buffers, images and shader modules. Each image and each long-lived buffer (pools,
- * staging, targets) has its own allocation; a terrain view's small buffers share two
+/* Buffers, images and shader modules, and which memory type each use gets
+ * (relief_vk_memory_pick()). Each image and each long-lived buffer (pools, staging,
+ * targets) has its own allocation; a terrain view's small buffers share two
  * (relief_vk_buffer_group_init()), since a daemon keeps a view per client channel. Not a
  * general suballocator: nothing is freed inside an allocation. */
 #include <errno.h>
@@ -7,26 +8,73 @@
 
 #include "vk.h"
 
-int relief_vk_memory_type(const struct relief_vk *vk, uint32_t type_bits, VkMemoryPropertyFlags want,
-                          uint32_t *index)
+/* Flags relief never allocates: protected memory and the device-coherent types of
+ * VK_AMD_device_coherent_memory need features it does not enable; lazily allocated memory
+ * is for transient attachments. */
+#define MEMORY_NEVER                                                                       \
+	(VK_MEMORY_PROPERTY_PROTECTED_BIT | VK_MEMORY_PROPERTY_LAZILY_ALLOCATED_BIT |            \
+	 VK_MEMORY_PROPERTY_DEVICE_COHERENT_BIT_AMD | VK_MEMORY_PROPERTY_DEVICE_UNCACHED_BIT_AMD)
+
+/* Rank of a type with flags f for `use`: -1 unusable, else higher is better. */
+static int memory_rank(VkMemoryPropertyFlags f, enum relief_vk_memory_use use)
 {
-	for (uint32_t i = 0; i < vk->mem.memoryTypeCount; i++) {
-		if ((type_bits & (1u << i)) && (vk->mem.memoryTypes[i].propertyFlags & want) == want) {
-			*index = i;
-			return 0;
-		}
+	const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+	const bool local = f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, visible = f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
+		   cached = f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+	if (f & MEMORY_NEVER)
+		return -1;
+	switch (use) {
+	case RELIEF_VK_MEMORY_DEVICE:
+		return 2 * local + !visible;
+	case RELIEF_VK_MEMORY_UPLOAD:
+		return (f & host) != host ? -1 : !local;
+	case RELIEF_VK_MEMORY_READBACK:
+		return (f & host) != host ? -1 : cached;
+	case RELIEF_VK_MEMORY_SHARED:
+		return (f & host) != host ? -1 : 2 * local + cached;
 	}
-	return -ENOMEM;
+	return -1;
 }
 
-static int allocate(struct relief_vk *vk, VkMemoryRequirements req, VkMemoryPropertyFlags want,
+int relief_vk_memory_pick(const VkPhysicalDeviceMemoryProperties *mem, uint32_t type_bits,
+                          enum relief_vk_memory_use use, uint32_t *index)
+{
+	int best = -1;
+	for (uint32_t i = 0; i < mem->memoryTypeCount && i < VK_MAX_MEMORY_TYPES; i++) {
+		int rank = (type_bits & (1u << i)) ? memory_rank(mem->memoryTypes[i].propertyFlags, use) : -1;
+		if (rank > best) {
+			best = rank;
+			*index = i;
+		}
+	}
+	return best < 0 ? -ENOMEM : 0;
+}
+
+static const char *memory_use_name(enum relief_vk_memory_use use)
+{
+	switch (use) {
+	case RELIEF_VK_MEMORY_DEVICE:
+		return "device";
+	case RELIEF_VK_MEMORY_UPLOAD:
+		return "upload";
+	case RELIEF_VK_MEMORY_READBACK:
+		return "readback";
+	case RELIEF_VK_MEMORY_SHARED:
+		return "shared";
+	}
+	return "?";
+}
+
+/* Allocates for `use` (every use but DEVICE gets a host-visible, coherent type). */
+static int allocate(struct relief_vk *vk, VkMemoryRequirements req, enum relief_vk_memory_use use,
                     VkDeviceMemory *mem)
 {
 	*mem = VK_NULL_HANDLE;
 	uint32_t type;
-	int ret = relief_vk_memory_type(vk, req.memoryTypeBits, want, &type);
+	int ret = relief_vk_memory_pick(&vk->mem, req.memoryTypeBits, use, &type);
 	if (ret < 0) {
-		relief_log(&vk->log, RELIEF_LOG_ERROR, "no memory type with flags 0x%x", (unsigned)want);
+		relief_log(&vk->log, RELIEF_LOG_ERROR, "no memory type for %s use among types 0x%x", memory_use_name(use),
+		           (unsigned)req.memoryTypeBits);
 		return ret;
 	}
 	VkMemoryAllocateInfo info = {
@@ -48,12 +96,6 @@ static void release(struct relief_vk *vk, VkDeviceMemory mem)
 	atomic_fetch_sub(&vk->allocations, 1);
 }
 
-static VkMemoryPropertyFlags buffer_flags(bool host_visible)
-{
-	return host_visible ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
-	                    : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
-}
-
 static int buffer_create(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size, VkBufferUsageFlags usage)
 {
 	memset(b, 0, sizeof(*b));
@@ -68,19 +110,19 @@ static int buffer_create(struct relief_vk *vk, struct relief_vk_buffer *b, VkDev
 }
 
 int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDeviceSize size,
-                          VkBufferUsageFlags usage, bool host_visible)
+                          VkBufferUsageFlags usage, enum relief_vk_memory_use use)
 {
 	int ret = buffer_create(vk, b, size, usage);
 	if (ret < 0)
 		goto fail;
 	VkMemoryRequirements req;
 	vkGetBufferMemoryRequirements(vk->device, b->buffer, &req);
-	if ((ret = allocate(vk, req, buffer_flags(host_visible), &b->memory)) < 0)
+	if ((ret = allocate(vk, req, use, &b->memory)) < 0)
 		goto fail;
 	ret = relief_vk_check(vk, vkBindBufferMemory(vk->device, b->buffer, b->memory, 0), "vkBindBufferMemory");
 	if (ret < 0)
 		goto fail;
-	if (host_visible) {
+	if (use != RELIEF_VK_MEMORY_DEVICE) {
 		ret = relief_vk_check(vk, vkMapMemory(vk->device, b->memory, 0, VK_WHOLE_SIZE, 0, &b->map),
 		                      "vkMapMemory");
 		if (ret < 0)
@@ -89,6 +131,34 @@ int relief_vk_buffer_init(struct relief_vk *vk, struct relief_vk_buffer *b, VkDe
 	return 0;
 fail:
 	relief_vk_buffer_finish(vk, b);
+	return ret;
+}
+
+int relief_vk_buffer_upload(struct relief_vk *vk, const struct relief_vk_buffer *b, const void *data,
+                            VkDeviceSize size)
+{
+	if (size == 0 || size > b->size)
+		return -EINVAL;
+	struct relief_vk_buffer up;
+	int ret = relief_vk_buffer_init(vk, &up, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, RELIEF_VK_MEMORY_UPLOAD);
+	if (ret < 0)
+		return ret;
+	memcpy(up.map, data, size);
+	VkCommandBuffer cmd;
+	if ((ret = relief_vk_cmd_begin(vk, &cmd)) == 0) {
+		vkCmdCopyBuffer(cmd, up.buffer, b->buffer, 1, &(VkBufferCopy){ 0, 0, size });
+		/* Visible to every later command on the queue, whatever reads it (a barrier's
+		 * second scope runs on in submission order, into later submissions). */
+		VkMemoryBarrier mb = {
+			.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
+			.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+			.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT,
+		};
+		vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, 0, 1, &mb, 0,
+		                     NULL, 0, NULL);
+		ret = relief_vk_cmd_submit_wait(vk, cmd);
+	}
+	relief_vk_buffer_finish(vk, &up);
 	return ret;
 }
 
@@ -103,7 +173,7 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
 }
 
 int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_group *g,
-                                const struct relief_vk_buffer_spec *specs, size_t n, bool host_visible)
+                                const struct relief_vk_buffer_spec *specs, size_t n, enum relief_vk_memory_use use)
 {
 	memset(g, 0, sizeof(*g));
 	if (n == 0 || n > RELIEF_VK_BUFFER_GROUP_MAX)
@@ -124,10 +194,10 @@ int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_gr
 		all.alignment = req.alignment > all.alignment ? req.alignment : all.alignment;
 		all.memoryTypeBits &= req.memoryTypeBits;
 	}
-	if (ret == 0 && (ret = allocate(vk, all, buffer_flags(host_visible), &g->memory)) == 0)
+	if (ret == 0 && (ret = allocate(vk, all, use, &g->memory)) == 0)
 		g->size = all.size;
 	void *base = NULL;
-	if (ret == 0 && host_visible)
+	if (ret == 0 && use != RELIEF_VK_MEMORY_DEVICE)
 		ret = relief_vk_check(vk, vkMapMemory(vk->device, g->memory, 0, VK_WHOLE_SIZE, 0, &base), "vkMapMemory");
 	for (size_t i = 0; i < n && ret == 0; i++) {
 		ret = relief_vk_check(vk, vkBindBufferMemory(vk->device, specs[i].buffer->buffer, g->memory, offsets[i]),
@@ -184,7 +254,7 @@ int relief_vk_image_init(struct relief_vk *vk, struct relief_vk_image *img, VkFo
 		goto fail;
 	VkMemoryRequirements req;
 	vkGetImageMemoryRequirements(vk->device, img->image, &req);
-	if ((ret = allocate(vk, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &img->memory)) < 0)
+	if ((ret = allocate(vk, req, RELIEF_VK_MEMORY_DEVICE, &img->memory)) < 0)
 		goto fail;
 	ret = relief_vk_check(vk, vkBindImageMemory(vk->device, img->image, img->memory, 0), "vkBindImageMemory");
 	if (ret < 0)

@@ -115,11 +115,18 @@ struct comparison compare(const struct scene *s, const struct relief_view *v, co
 	return c;
 }
 
-uint32_t view_levels(const struct scene *s, const struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
+uint32_t view_drawn(struct relief_terrain_view *tv, uint32_t *ids, uint32_t cap)
+{
+	int n = relief_terrain_view_drawn(tv, ids, cap);
+	assert_true(n >= 0);
+	return (uint32_t)n;
+}
+
+uint32_t view_levels(const struct scene *s, struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
                      uint32_t *counts)
 {
 	uint32_t levels = 0;
-	*n = relief_terrain_view_drawn(tv, ids, s->f->hdr.patch_count);
+	*n = view_drawn(tv, ids, s->f->hdr.patch_count);
 	for (uint32_t i = 0; i < *n; i++) {
 		uint32_t l, px, py;
 		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));

@@ -57,10 +57,12 @@ struct comparison {
 struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref, const float *lod,
                           const float *finest, uint32_t fw, uint32_t fh);
 
+/* View tv's last frame's drawn patch ids (relief_terrain_view_drawn(), which must succeed). */
+uint32_t view_drawn(struct relief_terrain_view *tv, uint32_t *ids, uint32_t cap);
 /* View tv's last frame: its drawn patches (ids[], *n of them) and the mask of their
  * levels; if counts is not NULL, each level's number of patches is added to
  * counts[RELIEF_MAX_LEVELS]. */
-uint32_t view_levels(const struct scene *s, const struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
+uint32_t view_levels(const struct scene *s, struct relief_terrain_view *tv, uint32_t *ids, uint32_t *n,
                      uint32_t *counts);
 /* The scene's own view's last frame (view_levels()). */
 uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n);

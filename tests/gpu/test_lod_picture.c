@@ -291,7 +291,7 @@ static void test_face_cull_keeps_picture(void **state)
 			render_with(&b.s, &v, &o, b.lod, &culled);
 			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
 			/* the GPU's height is the CPU twin's over the blocks the frame drew */
-			uint32_t n = relief_terrain_view_drawn(b.s.view, ids, b.s.f->hdr.patch_count);
+			uint32_t n = view_drawn(b.s.view, ids, b.s.f->hdr.patch_count);
 			double twin = relief_drawn_height_bound(b.s.f, ids, n, v.eye.x, v.eye.y);
 			if (gpu)
 				assert_true(isnan(twin) ? isnan(culled.cull_height) : fabs(culled.cull_height - twin) < 1e-3);

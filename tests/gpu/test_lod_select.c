@@ -138,7 +138,7 @@ static void test_gpu_matches_cpu(void **state)
 		struct relief_terrain_stats st;
 		/* The GPU view starts with nothing split, like prev[] here. */
 		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 2 + p, NULL, &st), 0);
-		uint32_t ng = relief_terrain_view_drawn(s.view, gpu, n);
+		uint32_t ng = view_drawn(s.view, gpu, n);
 		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
 		uint32_t k = 0;
 		for (uint32_t id = 0; id < n; id++)
@@ -221,7 +221,7 @@ static uint32_t mark_needed(const struct scene *s, uint8_t *need)
 {
 	const struct relief_file *f = s->f;
 	const uint32_t n = f->hdr.patch_count;
-	uint32_t *ids = malloc(4 * n), drawn = relief_terrain_view_drawn(s->view, ids, n), count = 0;
+	uint32_t *ids = malloc(4 * n), drawn = view_drawn(s->view, ids, n), count = 0;
 	for (uint32_t k = 0; k < drawn; k++) {
 		uint32_t l, px, py;
 		assert_true(relief_patch_coords(&f->layout, ids[k], &l, &px, &py));
@@ -335,7 +335,7 @@ static void test_views_share_cache(void **state)
 }
 
 /* The number of finest-level patches view tv drew in its last frame. */
-static uint32_t finest_drawn(const struct scene *s, const struct relief_terrain_view *tv)
+static uint32_t finest_drawn(const struct scene *s, struct relief_terrain_view *tv)
 {
 	uint32_t *ids = malloc(4 * s->f->hdr.patch_count), n, counts[RELIEF_MAX_LEVELS] = { 0 };
 	view_levels(s, tv, ids, &n, counts);
