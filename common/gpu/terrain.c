@@ -139,9 +139,10 @@ struct relief_terrain_view {
 	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;
-	/* What the CPU reads after a frame, copied there at its end: counters and requests */
-	struct relief_vk_buffer read_counters, read_wants;
-	/* The memory of the buffers above: device (all but the last two), readback (those two).
+	/* What the CPU reads after a frame: counters and requests, copied at its end; the
+	 * drawn instances, copied when asked for (relief_terrain_view_drawn()) */
+	struct relief_vk_buffer read_counters, read_wants, read_instances;
+	/* The memory of the buffers above: device (all but the last three), readback (those).
 	 * Nothing the device reads or updates every frame lives in memory the CPU maps, which
 	 * on a discrete GPU is system memory across the bus. */
 	struct relief_vk_buffer_group local, readback;
@@ -354,6 +355,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	const struct relief_vk_buffer_spec readback[] = {
 		{ &v->read_counters, sizeof(struct counters), VK_BUFFER_USAGE_TRANSFER_DST_BIT },
 		{ &v->read_wants, sizeof(struct want) * WANT_CAP, VK_BUFFER_USAGE_TRANSFER_DST_BIT },
+		{ &v->read_instances, sizeof(struct instance) * t->max_patches, VK_BUFFER_USAGE_TRANSFER_DST_BIT },
 	};
 	int ret;
 	if ((ret = relief_vk_buffer_group_init(vk, &v->local, local, sizeof(local) / sizeof(local[0]),
@@ -445,6 +447,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->wants);
 	relief_vk_buffer_finish(vk, &v->read_counters);
 	relief_vk_buffer_finish(vk, &v->read_wants);
+	relief_vk_buffer_finish(vk, &v->read_instances);
 	relief_vk_buffer_group_finish(vk, &v->local);
 	relief_vk_buffer_group_finish(vk, &v->readback);
 	free(v);
@@ -688,29 +691,23 @@ int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint
 	if (n == 0)
 		return 0;
 	/* The instances stay in device memory: copied out on demand, not every frame. */
-	struct relief_vk_buffer out;
 	VkDeviceSize bytes = sizeof(struct instance) * n;
-	int ret = relief_vk_buffer_init(vk, &out, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, RELIEF_VK_MEMORY_READBACK);
+	VkCommandBuffer cmd;
+	int ret = relief_vk_cmd_begin(vk, &cmd);
 	if (ret < 0)
 		return ret;
-	VkCommandBuffer cmd;
-	if ((ret = relief_vk_cmd_begin(vk, &cmd)) == 0) {
-		/* The last frame's selection wrote them (that frame was waited for). */
-		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-		        VK_ACCESS_TRANSFER_READ_BIT);
-		vkCmdCopyBuffer(cmd, v->instances.buffer, out.buffer, 1, &(VkBufferCopy){ 0, 0, bytes });
-		barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-		        VK_ACCESS_HOST_READ_BIT);
-		ret = relief_vk_cmd_submit_wait(vk, cmd);
-	}
-	if (ret == 0) {
-		const struct instance *in = out.map;
-		for (uint32_t i = 0; i < n; i++)
-			ids[i] = in[i].id;
-		ret = (int)n;
-	}
-	relief_vk_buffer_finish(vk, &out);
-	return ret;
+	/* The last frame's selection wrote them (that frame was waited for). */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+	        VK_ACCESS_TRANSFER_READ_BIT);
+	vkCmdCopyBuffer(cmd, v->instances.buffer, v->read_instances.buffer, 1, &(VkBufferCopy){ 0, 0, bytes });
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+	        VK_ACCESS_HOST_READ_BIT);
+	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
+		return ret;
+	const struct instance *in = v->read_instances.map;
+	for (uint32_t i = 0; i < n; i++)
+		ids[i] = in[i].id;
+	return (int)n;
 }
 
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)

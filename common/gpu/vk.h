@@ -162,8 +162,8 @@ int relief_vk_buffer_upload(struct relief_vk *vk, const struct relief_vk_buffer 
 /* Destroys the buffer, and frees its memory if it has its own. */
 void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
 
-/* Several buffers bound at aligned offsets of one allocation: a terrain view's fourteen
- * buffers take two allocations (device, readback), not fourteen. The group owns the
+/* Several buffers bound at aligned offsets of one allocation: a terrain view's fifteen
+ * buffers take two allocations (device, readback), not fifteen. The group owns the
  * memory; finish its buffers (relief_vk_buffer_finish()) before the group. */
 struct relief_vk_buffer_spec {
 	struct relief_vk_buffer *buffer;
