@@ -225,6 +225,10 @@ int cmd_fly(int argc, char **argv)
 	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log };
 	struct tool_renderer g = { 0 };
 	struct relief_terrain_view *tv[MAX_CHANNELS] = { 0 };
+	/* Channel 0 draws into the renderer's target, the others into their own, so that every
+	 * channel's frame is in flight at once (relief_terrain_draw_submit()). */
+	struct relief_vk_target extra[MAX_CHANNELS - 1] = { 0 };
+	struct relief_vk_target *target[MAX_CHANNELS] = { 0 };
 	struct relief_patch_cache_options co = { .budget_bytes = (uint64_t)budget << 20, .workers = workers };
 	struct fly_stats s = {
 		.wall_ms = malloc(sizeof(double) * frames), .update_ms = malloc(sizeof(double) * frames),
@@ -240,11 +244,14 @@ int cmd_fly(int argc, char **argv)
 		fprintf(stderr, "relief fly: GPU setup failed: %s\n", strerror(-ret));
 		goto out;
 	}
-	for (uint32_t ch = 0; ch < channels; ch++)
-		if ((ret = relief_terrain_view_create(g.terrain, &tv[ch])) < 0) {
+	for (uint32_t ch = 0; ch < channels; ch++) {
+		target[ch] = ch ? &extra[ch - 1] : &g.target;
+		if ((ch && (ret = relief_vk_target_init(g.vk, target[ch], width, height)) < 0) ||
+		    (ret = relief_terrain_view_create(g.terrain, &tv[ch])) < 0) {
 			fprintf(stderr, "relief fly: GPU setup failed: %s\n", strerror(-ret));
 			goto out;
 		}
+	}
 	double start = 0, png_total = 0; /* wall clock of the first frame; time spent writing PNGs */
 	uint32_t culled_draws = 0;      /* draws with back faces culled (relief_terrain_stats.face_culled) */
 	for (uint32_t i = 0; i < frames; i++) {
@@ -264,8 +271,14 @@ int cmd_fly(int argc, char **argv)
 		for (uint32_t ch = 0; ch < channels; ch++) {
 			struct relief_view v;
 			track_channel_view(&centre, (ch - 0.5 * (channels - 1)) * hfov, &v);
+			if ((ret = relief_terrain_draw_submit(g.terrain, tv[ch], &v, target[ch], frame, NULL)) < 0) {
+				fprintf(stderr, "relief fly: frame %u, channel %u: drawing failed: %s\n", i, ch, strerror(-ret));
+				goto out;
+			}
+		}
+		for (uint32_t ch = 0; ch < channels; ch++) {
 			struct relief_terrain_stats st;
-			if ((ret = relief_terrain_draw(g.terrain, tv[ch], &v, &g.target, frame, NULL, &st)) < 0) {
+			if ((ret = relief_terrain_view_wait(g.terrain, tv[ch], &st)) < 0) {
 				fprintf(stderr, "relief fly: frame %u, channel %u: drawing failed: %s\n", i, ch, strerror(-ret));
 				goto out;
 			}
@@ -281,7 +294,7 @@ int cmd_fly(int argc, char **argv)
 				double p0 = bench_now();
 				sprintf(png, channels > 1 ? "%s/frame-%05u-c%u.png" : "%s/frame-%05u.png", out_dir, i, ch);
 				if ((ret = cli_make_parent_dir(png)) < 0 ||
-				    (ret = png_write_rgba(png, g.target.color_readback.map, width, height)) < 0) {
+				    (ret = png_write_rgba(png, target[ch]->color_readback.map, width, height)) < 0) {
 					fprintf(stderr, "relief fly: cannot write %s: %s\n", png, strerror(-ret));
 					goto out;
 				}
@@ -357,8 +370,11 @@ int cmd_fly(int argc, char **argv)
 	}
 	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;
 out:
-	for (uint32_t ch = 0; ch < channels; ch++)
-		relief_terrain_view_destroy(tv[ch]);
+	for (uint32_t ch = 0; ch < channels; ch++) {
+		relief_terrain_view_destroy(tv[ch]); /* waits for a frame still in flight */
+		if (ch && g.vk)
+			relief_vk_target_finish(g.vk, target[ch]);
+	}
 	tool_renderer_finish(&g);
 	free(png);
 	free(s.wall_ms);

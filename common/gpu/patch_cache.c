@@ -5,6 +5,7 @@
  * Locking: `lock` guards the request heap, `queued`, the free staging slots, the ready list
  * and the worker counters. Everything else (patch states, layers, batches, Vulkan objects)
  * belongs to the thread that calls the public functions. */
+#include <assert.h>
 #include <errno.h>
 #include <math.h>
 #include <pthread.h>
@@ -472,8 +473,24 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 	b->n = 0;
 }
 
+void relief_patch_cache_hold(struct relief_patch_cache *c)
+{
+	c->holds++;
+}
+
+void relief_patch_cache_release(struct relief_patch_cache *c)
+{
+	assert(c->holds > 0);
+	c->holds--;
+}
+
 int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 {
+	if (c->holds) {
+		relief_log(&c->log, RELIEF_LOG_ERROR, "patch cache: update while %u frame(s) drawing from it are in flight",
+		           c->holds);
+		return -EBUSY;
+	}
 	int made = 0, ret = 0;
 	for (;;) { /* the finished batches, oldest first */
 		struct batch *oldest = NULL;

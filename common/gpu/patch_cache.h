@@ -121,8 +121,15 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 uint32_t relief_patch_cache_use_dist_half(struct relief_patch_cache *c, uint64_t frame, bool *reset);
 /* Marks patch id as used by a view in `frame` (keeps it from eviction for keep_frames). */
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame);
+/* A frame that reads the cache's tables is in flight (submitted, not yet waited for):
+ * while any is, relief_patch_cache_update() and _flush() refuse (-EBUSY), since they
+ * write the layer table that frame reads and read the use tables it writes, from the
+ * host. The renderer holds the cache from a view's submission to its wait. */
+void relief_patch_cache_hold(struct relief_patch_cache *c);
+void relief_patch_cache_release(struct relief_patch_cache *c);
 /* Non-blocking progress, once per frame: retires finished GPU batches, submits new ones.
- * Returns the number of patches that became resident, or a negative errno. */
+ * Returns the number of patches that became resident, or a negative errno (-EBUSY while
+ * a frame is in flight, relief_patch_cache_hold()). */
 int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame);
 /* Blocks until nothing is queued, decoding or in flight (tests, benchmarks). */
 int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame);

@@ -82,6 +82,7 @@ struct relief_patch_cache {
 	uint64_t pool_bytes;
 
 	uint64_t dist_frame; /* the frame whose use_dist half was last reset, 0: none yet */
+	uint32_t holds;      /* frames in flight that read the tables (relief_patch_cache_hold()) */
 
 	/* render-thread state, per patch */
 	uint8_t *state;

@@ -126,8 +126,6 @@ struct relief_terrain {
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
 	VkPipeline select, commands, borders, factors, draw_fill, draw_cull, draw_wire;
-	VkQueryPool stats_pool;
-	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
 	 * at most (every layer drawn, each with four curtains: a loose bound) */
 	uint32_t count, blocks, per_patch, per_draw, max_patches, max_quads, max_draws;
@@ -150,6 +148,14 @@ struct relief_terrain_view {
 	VkDescriptorSet set[2];
 	uint32_t parity;
 	uint32_t last_drawn;
+	/* Per view, so that several views' frames can be in flight at once */
+	VkQueryPool stats_pool;
+	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
+	/* The frame in flight (relief_terrain_draw_submit() to relief_terrain_view_wait()):
+	 * its command buffer (VK_NULL_HANDLE: none), fence, and how back faces were culled */
+	VkCommandBuffer pending;
+	VkFence fence;
+	bool gpu_cull, cpu_cull;
 };
 
 static int layout_with_push(struct relief_vk *vk, VkDescriptorSetLayout set, VkShaderStageFlags stages, uint32_t size,
@@ -293,12 +299,6 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_wire)) < 0)
 			goto fail;
 	}
-	if (vk->has.pipeline_statistics &&
-	    (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT, 1,
-	                                       &t->stats_pool)) < 0)
-		goto fail;
-	if ((ret = relief_vk_timer_init(vk, &t->timer, 4)) < 0 && ret != -ENOTSUP)
-		goto fail;
 	*out = t;
 	return 0;
 fail:
@@ -321,9 +321,6 @@ void relief_terrain_destroy(struct relief_terrain *t)
 			vkDestroyPipelineLayout(dev, layouts[i], NULL);
 	if (t->set_layout)
 		vkDestroyDescriptorSetLayout(dev, t->set_layout, NULL);
-	if (t->stats_pool)
-		vkDestroyQueryPool(dev, t->stats_pool, NULL);
-	relief_vk_timer_finish(t->vk, &t->timer);
 	relief_vk_buffer_finish(t->vk, &t->info);
 	free(t);
 }
@@ -411,6 +408,13 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		}
 		vkUpdateDescriptorSets(vk->device, BINDINGS, w, 0, NULL);
 	}
+	VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
+	if ((vk->has.pipeline_statistics &&
+	     (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT, 1,
+	                                        &v->stats_pool)) < 0) ||
+	    ((ret = relief_vk_timer_init(vk, &v->timer, 4)) < 0 && ret != -ENOTSUP) ||
+	    (ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &v->fence), "vkCreateFence")) < 0)
+		goto fail;
 	/* Hysteresis starts with nothing split. */
 	VkCommandBuffer cmd;
 	if ((ret = relief_vk_cmd_begin(vk, &cmd)) < 0)
@@ -431,6 +435,13 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	if (!v)
 		return;
 	struct relief_vk *vk = v->t->vk;
+	if (v->pending)
+		relief_terrain_view_wait(v->t, v, NULL);
+	if (v->fence)
+		vkDestroyFence(vk->device, v->fence, NULL);
+	if (v->stats_pool)
+		vkDestroyQueryPool(vk->device, v->stats_pool, NULL);
+	relief_vk_timer_finish(vk, &v->timer);
 	if (v->pool)
 		vkDestroyDescriptorPool(vk->device, v->pool, NULL);
 	relief_vk_buffer_finish(vk, &v->split[0]);
@@ -480,10 +491,11 @@ static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v
 		vkCmdDrawIndirect(cmd, v->cmds.buffer, 0, t->max_draws, 16);
 }
 
-int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
-                        struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
-                        struct relief_terrain_stats *st)
+int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                               struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts)
 {
+	if (v->pending)
+		return -EBUSY;
 	const struct relief_draw_options defaults = { .fine = RELIEF_FINE_ERRORS };
 	if (!opts)
 		opts = &defaults;
@@ -557,13 +569,14 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	int ret = relief_vk_cmd_begin(vk, &cmd);
 	if (ret < 0)
 		return ret;
-	if (t->timer.pool) {
-		relief_vk_timer_reset(&t->timer, cmd);
-		relief_vk_timer_write(&t->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
+	if (v->timer.pool) {
+		relief_vk_timer_reset(&v->timer, cmd);
+		relief_vk_timer_write(&v->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
 	}
-	if (t->stats_pool)
-		vkCmdResetQueryPool(cmd, t->stats_pool, 0, 1);
-	/* The previous frame's readers are done (we waited); decodes' writes are visible. */
+	if (v->stats_pool)
+		vkCmdResetQueryPool(cmd, v->stats_pool, 0, 1);
+	/* The work submitted before (this view's last frame, other views' frames, decodes) is
+	 * done with what this frame writes, and its writes are visible. */
 	barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
@@ -598,8 +611,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
-	if (t->timer.pool)
-		relief_vk_timer_write(&t->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+	if (v->timer.pool)
+		relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
 	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) | (view->morph ? MODE_MORPH : 0u);
 	dp.mode = mode;
@@ -616,14 +629,14 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
 	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
-	if (t->timer.pool)
-		relief_vk_timer_write(&t->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+	if (v->timer.pool)
+		relief_vk_timer_write(&v->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
-	if (t->stats_pool)
-		vkCmdBeginQuery(cmd, t->stats_pool, 0, 0);
+	if (v->stats_pool)
+		vkCmdBeginQuery(cmd, v->stats_pool, 0, 0);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
 		dp.mode = mode | (uint32_t)pass;
 		if (pass == 1)
@@ -633,8 +646,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 			draw_records(t, v, cmd, t->draw_fill, &dp, offsetof(struct counters, draw_split) + 4);
 		} else
 			draw_records(t, v, cmd, cpu_cull ? t->draw_cull : t->draw_fill, &dp, offsetof(struct counters, draws));
-		if (t->stats_pool && pass == 0)
-			vkCmdEndQuery(cmd, t->stats_pool, 0);
+		if (v->stats_pool && pass == 0)
+			vkCmdEndQuery(cmd, v->stats_pool, 0);
 	}
 	relief_vk_target_end(target, cmd);
 	/* The counters and requests to where the CPU reads them. */
@@ -646,12 +659,33 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	                &(VkBufferCopy){ 0, 0, sizeof(struct want) * WANT_CAP });
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
 	        VK_ACCESS_HOST_READ_BIT);
-	if (t->timer.pool)
-		relief_vk_timer_write(&t->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
-	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
+	if (v->timer.pool)
+		relief_vk_timer_write(&v->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+	if ((ret = relief_vk_cmd_submit(vk, cmd, v->fence)) < 0)
 		return ret;
+	v->pending = cmd;
+	v->gpu_cull = gpu_cull;
+	v->cpu_cull = cpu_cull;
 	v->parity ^= 1;
+	relief_patch_cache_hold(t->cache);
+	return 0;
+}
 
+int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_view *v, struct relief_terrain_stats *st)
+{
+	if (!v->pending)
+		return -EINVAL;
+	struct relief_vk *vk = t->vk;
+	const struct relief_file *f = t->file;
+	int ret = relief_vk_check(vk, vkWaitForFences(vk->device, 1, &v->fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+	if (ret == 0)
+		ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &v->fence), "vkResetFences");
+	vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &v->pending);
+	v->pending = VK_NULL_HANDLE;
+	relief_patch_cache_release(t->cache);
+	if (ret < 0)
+		return ret;
+	const bool gpu_cull = v->gpu_cull, cpu_cull = v->cpu_cull;
 	const struct counters *c = v->read_counters.map;
 	struct relief_terrain_stats s = {
 		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
@@ -661,12 +695,12 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */
 	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
-	if (t->stats_pool)
-		vkGetQueryPoolResults(vk->device, t->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
+	if (v->stats_pool)
+		vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
 		                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
-	if (t->timer.pool && (relief_vk_timer_ns(vk, &t->timer, 0, 1, &s.select_ns) < 0 ||
-	                      relief_vk_timer_ns(vk, &t->timer, 0, 2, &s.lod_ns) < 0 ||
-	                      relief_vk_timer_ns(vk, &t->timer, 0, 3, &s.gpu_ns) < 0))
+	if (v->timer.pool && (relief_vk_timer_ns(vk, &v->timer, 0, 1, &s.select_ns) < 0 ||
+	                      relief_vk_timer_ns(vk, &v->timer, 0, 2, &s.lod_ns) < 0 ||
+	                      relief_vk_timer_ns(vk, &v->timer, 0, 3, &s.gpu_ns) < 0))
 		s.select_ns = s.lod_ns = s.gpu_ns = 0;
 	/* Requests, made in id order: coarser patches first (lower ids are coarser), so that a
 	 * parent is on its way before its child is asked for and a whole chain is accepted in
@@ -684,9 +718,19 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 	return 0;
 }
 
+int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                        struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
+                        struct relief_terrain_stats *st)
+{
+	int ret = relief_terrain_draw_submit(t, v, view, target, frame, opts);
+	return ret < 0 ? ret : relief_terrain_view_wait(t, v, st);
+}
+
 int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
 {
 	struct relief_vk *vk = v->t->vk;
+	if (v->pending)
+		return -EBUSY;
 	uint32_t n = v->last_drawn < cap ? v->last_drawn : cap;
 	if (n == 0)
 		return 0;
@@ -712,6 +756,8 @@ int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint
 
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)
 {
+	if (v->pending)
+		return 0;
 	const struct counters *c = v->read_counters.map;
 	const struct want *w = v->read_wants.map;
 	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;

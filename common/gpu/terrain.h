@@ -67,14 +67,26 @@ struct relief_draw_options {
 
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then
  * passes the view's requests for missing patches to the cache (coarse first). `opts` may be
- * NULL (relief's method, no wireframe). */
+ * NULL (relief's method, no wireframe). relief_terrain_draw_submit() and
+ * relief_terrain_view_wait() in one call. */
 int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
                         struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
                         struct relief_terrain_stats *st);
+/* The same in two halves, so that several views' frames are in flight at once (a GPU then
+ * renders one while the CPU records the next): submit records and submits the frame
+ * (-EBUSY while this view has one in flight); wait waits for it, fills *st (may be NULL)
+ * and passes the requests on (-EINVAL when nothing was submitted). In between, the view
+ * and `target` belong to the device: give each view in flight a target of its own, do not
+ * read the target, and do not update the cache (relief_patch_cache_update() refuses, see
+ * relief_patch_cache_hold()). Frames run in submission order. */
+int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                               struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts);
+int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_view *v, struct relief_terrain_stats *st);
 
 /* The last frame's drawn patch ids (unordered), at most cap, for tests and statistics:
- * copied out of device memory and waited for. Returns the count or a negative errno. */
+ * copied out of device memory and waited for. Returns the count or a negative errno
+ * (-EBUSY while the view has a frame in flight). */
 int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);
 /* The last frame's requests (patch ids, unordered; at most the frame's cap), for tests;
- * returns the count. */
+ * returns the count (0 while the view has a frame in flight). */
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

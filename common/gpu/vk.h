@@ -203,6 +203,10 @@ int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t s
 
 /* Allocates and begins a one-time primary command buffer. */
 int relief_vk_cmd_begin(struct relief_vk *vk, VkCommandBuffer *cmd);
+/* Ends `cmd` and submits it, `fence` (may be VK_NULL_HANDLE) signalled when it completes;
+ * the caller frees it (vkFreeCommandBuffers() on cmd_pool) once it has. On failure `cmd`
+ * is freed here. */
+int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence);
 /* Ends, submits, waits for completion and frees `cmd` (also on failure). */
 int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd);
 

@@ -26,27 +26,35 @@ int relief_vk_cmd_begin(struct relief_vk *vk, VkCommandBuffer *cmd)
 	return ret;
 }
 
-int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd)
+int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence)
 {
-	VkFence fence = VK_NULL_HANDLE;
 	int ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-	if (ret < 0)
-		goto out;
-	VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
-	if ((ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &fence), "vkCreateFence")) < 0)
-		goto out;
 	VkSubmitInfo submit = {
 		.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
 		.commandBufferCount = 1,
 		.pCommandBuffers = &cmd,
 	};
-	if ((ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &submit, fence), "vkQueueSubmit")) < 0)
-		goto out;
-	ret = relief_vk_check(vk, vkWaitForFences(vk->device, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
-out:
-	if (fence)
-		vkDestroyFence(vk->device, fence, NULL);
-	vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+	if (ret == 0)
+		ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &submit, fence), "vkQueueSubmit");
+	if (ret < 0)
+		vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+	return ret;
+}
+
+int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd)
+{
+	VkFence fence = VK_NULL_HANDLE;
+	VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
+	int ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &fence), "vkCreateFence");
+	if (ret < 0) {
+		vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+		return ret;
+	}
+	if ((ret = relief_vk_cmd_submit(vk, cmd, fence)) == 0) {
+		ret = relief_vk_check(vk, vkWaitForFences(vk->device, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+		vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+	}
+	vkDestroyFence(vk->device, fence, NULL);
 	return ret;
 }
 

@@ -334,6 +334,87 @@ static void test_views_share_cache(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Several views' frames in flight at once (relief_terrain_draw_submit(), then
+ * relief_terrain_view_wait() for each) give each view, target for target, the pictures
+ * and counts it gets when each frame is waited for before the next is submitted; while they
+ * are in flight the cache refuses to update, a view refuses a second frame and its drawn
+ * ids, and the validation layer's synchronisation checks see no hazard. */
+static void test_views_in_flight(void **state)
+{
+	const struct pose poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },
+		{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },
+	};
+	enum { N = 3, FRAMES = 2 };
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	load_everything(&s);
+	struct relief_view views[N];
+	struct relief_vk_target targets[N];
+	struct relief_terrain_view *tv[2][N];
+	uint8_t *pictures[2][N];
+	struct relief_terrain_stats st[2][N];
+	const size_t bytes = (size_t)BW * BH * 8; /* colour, then depth */
+	for (int i = 0; i < N; i++) {
+		views[i] = pose_view(&poses[i]);
+		views[i].tau = 1.0 + i;
+		assert_int_equal(relief_vk_target_init(vk, &targets[i], BW, BH), 0);
+		for (int k = 0; k < 2; k++) {
+			assert_int_equal(relief_terrain_view_create(s.terrain, &tv[k][i]), 0);
+			pictures[k][i] = malloc(bytes);
+		}
+	}
+	uint32_t ids[4];
+	for (uint64_t frame = 1; frame <= FRAMES; frame++) {
+		/* k = 0: one frame at a time; k = 1: all submitted, then waited for. */
+		for (int k = 0; k < 2; k++) {
+			assert_true(relief_patch_cache_update(s.cache, frame) >= 0);
+			for (int i = 0; i < N; i++) {
+				assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[k][i], &views[i], &targets[i], frame, NULL), 0);
+				if (k == 0)
+					assert_int_equal(relief_terrain_view_wait(s.terrain, tv[k][i], &st[k][i]), 0);
+			}
+			if (k == 1) {
+				assert_int_equal(relief_patch_cache_update(s.cache, frame), -EBUSY);
+				assert_int_equal(relief_patch_cache_flush(s.cache, frame), -EBUSY);
+				assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[1][0], &views[0], &targets[0], frame, NULL),
+				                 -EBUSY);
+				assert_int_equal(relief_terrain_view_drawn(tv[1][0], ids, 4), -EBUSY);
+				for (int i = 0; i < N; i++)
+					assert_int_equal(relief_terrain_view_wait(s.terrain, tv[1][i], &st[1][i]), 0);
+				assert_int_equal(relief_terrain_view_wait(s.terrain, tv[1][0], NULL), -EINVAL);
+			}
+			for (int i = 0; i < N; i++) {
+				memcpy(pictures[k][i], targets[i].color_readback.map, (size_t)BW * BH * 4);
+				memcpy(pictures[k][i] + (size_t)BW * BH * 4, targets[i].depth_readback.map, (size_t)BW * BH * 4);
+			}
+		}
+		for (int i = 0; i < N; i++) {
+			print_message("frame %llu, view %d: %u patches, %llu triangles, pictures %s\n", (unsigned long long)frame,
+			              i, st[1][i].patches, (unsigned long long)st[1][i].triangles,
+			              memcmp(pictures[0][i], pictures[1][i], bytes) ? "differ" : "equal");
+			assert_memory_equal(pictures[0][i], pictures[1][i], bytes);
+			assert_int_equal(st[0][i].patches, st[1][i].patches);
+			assert_int_equal(st[0][i].triangles, st[1][i].triangles);
+			assert_int_equal(st[0][i].requests, st[1][i].requests);
+			assert_true(st[1][i].patches > 0);
+		}
+	}
+	assert_true(relief_patch_cache_update(s.cache, FRAMES + 1) >= 0);
+	/* The three views see different terrain: the comparison is not of three equal frames. */
+	assert_true(memcmp(pictures[1][0], pictures[1][1], bytes) != 0 && memcmp(pictures[1][1], pictures[1][2], bytes) != 0);
+	for (int i = 0; i < N; i++) {
+		for (int k = 0; k < 2; k++) {
+			relief_terrain_view_destroy(tv[k][i]);
+			free(pictures[k][i]);
+		}
+		relief_vk_target_finish(vk, &targets[i]);
+	}
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* The number of finest-level patches view tv drew in its last frame. */
 static uint32_t finest_drawn(const struct scene *s, struct relief_terrain_view *tv)
 {
@@ -595,6 +676,7 @@ int main(void)
 		cmocka_unit_test(test_near_detail_takes_layers),
 		cmocka_unit_test(test_tight_cache_settles),
 		cmocka_unit_test(test_frozen_lod),
+		cmocka_unit_test(test_views_in_flight),
 		cmocka_unit_test(test_view_allocations),
 		cmocka_unit_test(test_device_limits_named),
 	};
