@@ -185,14 +185,30 @@ vkcheck fly-track 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --f
 expect_text fly-summary "3 frames of 2 channel(s)"
 expect_text fly-summary-levels "last frame         patches drawn per level 0..3:"
 [ "$(ls "$tmp/fly" | wc -l)" -eq 6 ] || { echo "FAIL fly frames written: $(ls "$tmp/fly")"; fails=$((fails + 1)); }
+# Each channel is drawn into a target of its own (all in flight at once): the side-by-side
+# channels' pictures are the same only while the cold cache has nothing to draw (sky alone,
+# a PNG of under 200 bytes at this size).
+same_channels_sky_only() {
+	for c0 in "$1"/frame-*-c0.png; do
+		c1="${c0%-c0.png}-c1.png"
+		if cmp -s "$c0" "$c1" && [ "$(stat -c %s "$c0")" -ge 200 ]; then
+			echo "FAIL fly channels: $(basename "$c0") and its other channel show the same terrain"
+			fails=$((fails + 1))
+		fi
+	done
+}
+same_channels_sky_only "$tmp/fly"
 # The tools' own Vulkan paths under the validation layer (they exit 1 on any message): two
 # morphed channels from a 2 MiB cache with two workers, and a wireframe snap with its depth
 # file under GPU-assisted validation too. Whether the flight evicts depends on how fast the
 # workers are (frames never wait; the sanitizer build's often do not fill the cache in 9
 # frames), so it is not asserted here: test_patch_cache checks eviction under validation.
 vkcheck fly-validated 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 8 --channels 2 --size 48x32 \
-	--morph --budget 2 --workers 2 --validation
+	--morph --budget 2 --workers 2 --validation --out "$tmp/flyv"
 expect_text fly-validated-summary "9 frames of 2 channel(s)"
+same_channels_sky_only "$tmp/flyv"
+cmp -s "$tmp/flyv/frame-00008-c0.png" "$tmp/flyv/frame-00008-c1.png" &&
+	{ echo "FAIL fly channels: the last validated frame has the same picture in both channels"; fails=$((fails + 1)); }
 RELIEF_GPU_AV=1 vkcheck snap-validated 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 \
 	--look 128480,79200,3000 --size 96x54 -o "$tmp/v.png" --depth "$tmp/v.f32" --wire --morph --validation
 printf '0 60000 40000 3000 45 -10 0\n0 61000 41000 3000 90 -10 0\n' >"$tmp/bad.track"
