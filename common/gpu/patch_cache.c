@@ -480,8 +480,9 @@ void relief_patch_cache_hold(struct relief_patch_cache *c)
 
 void relief_patch_cache_release(struct relief_patch_cache *c)
 {
-	assert(c->holds > 0);
-	c->holds--;
+	assert(c->holds > 0); /* paired with relief_patch_cache_hold() */
+	if (c->holds)
+		c->holds--;
 }
 
 int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
