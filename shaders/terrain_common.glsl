@@ -1,5 +1,5 @@
 // Declarations shared by the LOD selection compute shaders and the terrain draw.
-// The CPU twins are in common/lod.c and common/gpu/terrain.c; keep them in step.
+// The CPU twins are in common/lod.c and common/gpu/terrain_internal.h; keep them in step.
 
 // One drawn patch: written by lod_select.comp, read by the terrain stages. Positions are
 // formed from integer sample indices relative to the camera's cell (pos_of), so that two

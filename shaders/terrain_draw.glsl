@@ -1,4 +1,4 @@
-// Bindings, push constants and helpers of the terrain draw stages (common/gpu/terrain.c).
+// Bindings, push constants and helpers of the terrain draw stages (common/gpu/terrain_internal.h).
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
 layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };

@@ -1,0 +1,266 @@
+/* A view's frame (see terrain.h): selection, draw records, border and factor passes and
+ * the tessellated draws recorded into one command buffer and submitted
+ * (relief_terrain_draw_submit()); its statistics and requests once it is done
+ * (relief_terrain_view_wait()). */
+#include <assert.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "terrain_internal.h"
+
+static int want_cmp(const void *a, const void *b)
+{
+	uint32_t x = ((const struct want *)a)->id, y = ((const struct want *)b)->id;
+	return x < y ? -1 : x > y;
+}
+
+/* Records the frame's draw records with `pipe`, as many as the count at `count_at` in the
+ * view's counters (all of them where vkCmdDrawIndirectCount is missing: unused records
+ * hold zero instances). */
+static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd, VkPipeline pipe,
+                         const struct draw_push *dp, VkDeviceSize count_at)
+{
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
+	vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(*dp), dp);
+	if (t->vk->has.draw_indirect_count)
+		vkCmdDrawIndirectCount(cmd, v->cmds.buffer, 0, v->counters.buffer, count_at, t->max_draws, 16);
+	else
+		vkCmdDrawIndirect(cmd, v->cmds.buffer, 0, t->max_draws, 16);
+}
+
+int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                               struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts)
+{
+	if (v->pending)
+		return -EBUSY;
+	const struct relief_draw_options defaults = { .fine = RELIEF_FINE_ERRORS };
+	if (!opts)
+		opts = &defaults;
+	const bool wire = opts->wire;
+	const char *why;
+	/* The level of detail is chosen for lod (selection, block factors, seals), the picture
+	 * drawn from view; both give positions relative to lod's camera. */
+	const struct relief_view *lod = opts->lod_view ? opts->lod_view : view;
+	if (relief_view_check(view, &why) < 0 || relief_view_check(lod, &why) < 0 || lod->width != view->width ||
+	    lod->height != view->height)
+		return -EINVAL;
+	struct relief_vk *vk = t->vk;
+	const struct relief_file *f = t->file;
+	/* Everything hangs from the root: make sure it is on its way. */
+	if (relief_patch_cache_state(t->cache, 0) == RELIEF_PATCH_ABSENT)
+		relief_patch_cache_request(t->cache, 0, -1.0f);
+	struct relief_view_origin o;
+	relief_view_origin(f, lod, &o);
+	struct select_push sp = {
+		.cell = { (int32_t)o.cell_x, (int32_t)o.cell_y },
+		.frac = { (float)o.frac_x, (float)o.frac_y },
+		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
+		.cam_z = (float)o.z,
+		.kappa = (float)relief_view_kappa(lod),
+		/* relief's own method leaves part of tau to the tessellator (lod.h); the baselines'
+		 * selections use the whole value they are given. */
+		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : lod->tau) *
+		               (opts->fine == RELIEF_FINE_ERRORS ? RELIEF_LOD_COARSE_SHARE : 1.0)),
+		.frame = (uint32_t)frame,
+		.count = t->count,
+		.levels = f->hdr.levels,
+		.P = f->hdr.patch_size,
+		.want_cap = WANT_CAP,
+		.delta_finest = (float)f->hdr.tolerance,
+		.ratio = f->hdr.ratio,
+	};
+	relief_view_matrix(lod, sp.vp);
+	struct draw_camera camera;
+	relief_view_matrix_from(view, lod->eye, camera.vp);
+	camera.eye[0] = (float)(view->eye.x - lod->eye.x);
+	camera.eye[1] = (float)(view->eye.y - lod->eye.y);
+	camera.eye[2] = (float)view->eye.z;
+	camera.eye[3] = 0.0f;
+	struct draw_push dp = {
+		.viewport = { (float)lod->width, (float)lod->height },
+		.tau = (float)lod->tau,
+		.cam_z = (float)o.z,
+		.P = f->hdr.patch_size,
+		.blocks = t->blocks,
+		.per_patch = t->per_patch,
+		.sun = { 0.45f, 0.3f, 0.84f, 0.0f },
+		.hrange = { (float)f->hdr.height_min, (float)f->hdr.height_max },
+		.target_px = opts->target_px > 0 ? opts->target_px : 1.0f,
+		.ratio = f->hdr.ratio,
+	};
+	memcpy(dp.vp, sp.vp, sizeof(dp.vp));
+	/* Back faces are hidden wherever the drawing camera is above the surface drawn under it:
+	 * along each ray the first surface met is then an upper side; inside the terrain the
+	 * underside stays drawn. The CPU's bound (relief_surface_height_bound(), every level's
+	 * blocks there, with a margin for the rounding of drawn heights) is conservative;
+	 * lod_commands.comp decides from the blocks actually drawn around the eye and splits
+	 * the draw count between the two pipelines, which needs vkCmdDrawIndirectCount. */
+	const bool cpu_cull = !opts->no_face_cull &&
+	                      view->eye.z > relief_surface_height_bound(f, view->eye.x, view->eye.y) + FACE_CULL_MARGIN;
+	const bool gpu_cull = !opts->no_face_cull && vk->has.draw_indirect_count;
+	struct commands_push cp = {
+		t->per_patch, t->blocks, t->per_draw, t->max_draws, cpu_cull, (float)FACE_CULL_MARGIN
+	};
+
+	VkCommandBuffer cmd;
+	int ret = relief_vk_cmd_begin(vk, &cmd);
+	if (ret < 0)
+		return ret;
+	if (v->timer.pool) {
+		relief_vk_timer_reset(&v->timer, cmd);
+		relief_vk_timer_write(&v->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
+	}
+	if (v->stats_pool)
+		vkCmdResetQueryPool(cmd, v->stats_pool, 0, 1);
+	/* The work submitted before (this view's last frame, other views' frames, decodes) is
+	 * done with what this frame writes, and its writes are visible. */
+	barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	vkCmdUpdateBuffer(cmd, v->camera.buffer, 0, sizeof(camera), &camera);
+	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
+	/* The first view drawn in a frame clears the frame's half of the use distances; the
+	 * selection (its half: frame & 1) takes the least over the frame's views. */
+	bool reset;
+	uint32_t half = relief_patch_cache_use_dist_half(t->cache, frame, &reset);
+	if (reset)
+		vkCmdFillBuffer(cmd, relief_patch_cache_pool(t->cache)->use_dist, (VkDeviceSize)half * 4 * t->count,
+		                (VkDeviceSize)4 * t->count, UINT32_MAX);
+	/* The camera is read by compute and by the evaluation shader. */
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	VkDescriptorSet set = v->set[v->parity];
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select);
+	vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
+	vkCmdDispatch(cmd, (t->count + 63) / 64, 1, 1);
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	/* Different push ranges make the layouts incompatible for the set: bind it again. */
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
+	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
+	vkCmdDispatch(cmd, 1, 1, 1);
+	/* Tessellation factors of every drawn quad, as many groups as the drawn count needs. */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
+	if (v->timer.pool)
+		relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
+	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) | (view->morph ? MODE_MORPH : 0u);
+	dp.mode = mode;
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
+	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
+	/* The border edges and corners first (lod_borders.comp), then every quad. */
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->borders);
+	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, border_groups));
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
+	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
+	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
+	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
+	if (v->timer.pool)
+		relief_vk_timer_write(&v->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+
+	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
+	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
+	if (v->stats_pool)
+		vkCmdBeginQuery(cmd, v->stats_pool, 0, 0);
+	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
+		dp.mode = mode | (uint32_t)pass;
+		if (pass == 1)
+			draw_records(t, v, cmd, t->draw_wire, &dp, offsetof(struct counters, draws));
+		else if (gpu_cull) { /* one of the two counts is 0 */
+			draw_records(t, v, cmd, t->draw_cull, &dp, offsetof(struct counters, draw_split));
+			draw_records(t, v, cmd, t->draw_fill, &dp, offsetof(struct counters, draw_split) + 4);
+		} else
+			draw_records(t, v, cmd, cpu_cull ? t->draw_cull : t->draw_fill, &dp, offsetof(struct counters, draws));
+		if (v->stats_pool && pass == 0)
+			vkCmdEndQuery(cmd, v->stats_pool, 0);
+	}
+	relief_vk_target_end(target, cmd);
+	/* The counters and requests to where the CPU reads them. */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+	        VK_ACCESS_TRANSFER_READ_BIT);
+	vkCmdCopyBuffer(cmd, v->counters.buffer, v->read_counters.buffer, 1,
+	                &(VkBufferCopy){ 0, 0, sizeof(struct counters) });
+	vkCmdCopyBuffer(cmd, v->wants.buffer, v->read_wants.buffer, 1,
+	                &(VkBufferCopy){ 0, 0, sizeof(struct want) * WANT_CAP });
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+	        VK_ACCESS_HOST_READ_BIT);
+	if (v->timer.pool)
+		relief_vk_timer_write(&v->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+	if ((ret = relief_vk_cmd_submit(vk, cmd, v->fence)) < 0)
+		return ret;
+	v->pending = cmd;
+	v->gpu_cull = gpu_cull;
+	v->cpu_cull = cpu_cull;
+	v->parity ^= 1;
+	relief_patch_cache_hold(t->cache);
+	return 0;
+}
+
+int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_view *v, struct relief_terrain_stats *st)
+{
+	if (!v->pending)
+		return -EINVAL;
+	struct relief_vk *vk = t->vk;
+	const struct relief_file *f = t->file;
+	int ret = relief_vk_check(vk, vkWaitForFences(vk->device, 1, &v->fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+	if (ret == 0)
+		ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &v->fence), "vkResetFences");
+	vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &v->pending);
+	v->pending = VK_NULL_HANDLE;
+	relief_patch_cache_release(t->cache);
+	if (ret < 0)
+		return ret;
+	const bool gpu_cull = v->gpu_cull, cpu_cull = v->cpu_cull;
+	const struct counters *c = v->read_counters.map;
+	struct relief_terrain_stats s = {
+		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
+		.face_culled = gpu_cull ? c->face_culled != 0 : cpu_cull,
+		.cull_height = gpu_cull && c->found ? c->near_high : NAN
+	};
+	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
+		s.requests++; /* the root itself is still missing */
+	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
+	if (v->stats_pool)
+		vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
+		                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
+	if (v->timer.pool && (relief_vk_timer_ns(vk, &v->timer, 0, 1, &s.select_ns) < 0 ||
+	                      relief_vk_timer_ns(vk, &v->timer, 0, 2, &s.lod_ns) < 0 ||
+	                      relief_vk_timer_ns(vk, &v->timer, 0, 3, &s.gpu_ns) < 0))
+		s.select_ns = s.lod_ns = s.gpu_ns = 0;
+	/* Requests, made in id order: coarser patches first (lower ids are coarser), so that a
+	 * parent is on its way before its child is asked for and a whole chain is accepted in
+	 * one frame. The cache serves the nearest first (its ancestors ahead of it). */
+	static_assert(WANT_CAP * sizeof(struct want) <= 16384, "the copy below lives on the stack");
+	struct want want[WANT_CAP];
+	uint32_t n = c->wants < WANT_CAP ? c->wants : WANT_CAP;
+	memcpy(want, v->read_wants.map, n * sizeof(*want)); /* sorted in place below */
+	qsort(want, n, sizeof(*want), want_cmp);
+	for (uint32_t i = 0; i < n; i++)
+		if (want[i].id < f->hdr.patch_count)
+			relief_patch_cache_request(t->cache, want[i].id, want[i].distance);
+	if (st)
+		*st = s;
+	return 0;
+}
+
+int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
+                        struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts,
+                        struct relief_terrain_stats *st)
+{
+	int ret = relief_terrain_draw_submit(t, v, view, target, frame, opts);
+	return ret < 0 ? ret : relief_terrain_view_wait(t, v, st);
+}

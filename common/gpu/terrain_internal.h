@@ -1,0 +1,157 @@
+/* What the terrain renderer's files share (terrain.c: the terrain and its pipelines;
+ * terrain_view.c: views, their buffers and what the CPU reads back; terrain_frame.c: a
+ * view's frame, submitted and waited for): the std430 twins of the shaders' structs and
+ * push blocks, the descriptor bindings, the two objects. Not for other users. */
+#pragma once
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "terrain.h"
+
+/* Requests one view can make in a frame (id and distance each); the rest follow next frame. */
+#define WANT_CAP 1024
+struct want {
+	uint32_t id;
+	float distance; /* metres from the camera to the patch's box */
+};
+/* Tessellated vertices of one quad patch at most: factor 16 everywhere, (16 + 1)^2. */
+#define MAX_VERTICES_PER_QUAD 289u
+/* Metres a camera must be above relief_surface_height_bound() for back faces to be culled:
+ * drawn heights are floats of at most ~10 km, rounded to ~1 mm. */
+#define FACE_CULL_MARGIN 0.01
+
+/* std430 twins of the shaders' push blocks and structs (shaders/terrain_*.glsl). */
+struct select_push {
+	float vp[16];
+	int32_t cell[2];
+	float frac[2], spacing[2];
+	float cam_z, kappa, tau;
+	uint32_t frame, count, levels, P, want_cap;
+	float delta_finest;
+	uint32_t ratio;
+};
+_Static_assert(sizeof(struct select_push) == 128, "select push block");
+
+struct commands_push {
+	uint32_t per_patch, blocks, per_draw, max_draws;
+	uint32_t cpu_cull; /* relief_surface_height_bound()'s decision, for when no drawn block holds the eye */
+	float margin;      /* FACE_CULL_MARGIN */
+};
+
+struct draw_push {
+	float vp[16];
+	float viewport[2];
+	float tau, cam_z;
+	uint32_t P, blocks, per_patch, mode;
+	float sun[4];
+	float hrange[2];
+	float target_px;
+	uint32_t ratio;
+};
+_Static_assert(sizeof(struct draw_push) == 128, "draw push block");
+
+struct patch_info {
+	float hmin, hmax, err, skirt;
+};
+
+struct instance {
+	uint32_t id;
+	int32_t layer;
+	uint32_t level;
+	float q2;
+	int32_t base[2], scale;
+	float err, skirt;
+	uint32_t px, py;
+	float pad, frac[2], spacing[2];
+};
+_Static_assert(sizeof(struct instance) == 64, "instance");
+
+struct counters {
+	uint32_t drawn, draws, wants, curtains;
+	uint32_t factor_groups[4]; /* VkDispatchIndirectCommand for lod_factors.comp, then padding */
+	uint32_t border_groups[4]; /* the same for lod_borders.comp */
+	/* lod_commands.comp: back faces culled; a drawn block holds the eye; the highest
+	 * block around it (metres) */
+	uint32_t face_culled, found;
+	float near_high;
+	uint32_t pad;
+	uint32_t draw_split[4];       /* the draw count for the culling pipeline, for the other */
+};
+/* The per-view camera buffer (binding 15): the drawing view-projection, then the drawing
+ * eye relative to the LOD camera (x east, y north) and its absolute height (z). */
+struct draw_camera {
+	float vp[16];
+	float eye[4];
+};
+
+/* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts,
+ * bit 4 no block culling. */
+#define MODE_NO_SKIRTS 8u
+#define MODE_NO_BLOCK_CULL 16u
+#define MODE_MORPH 32u
+
+/* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
+ * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
+ * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
+ * 13 tessellation factors and morph bytes (uvec4 per quad, lod_factors.comp), 14 curtains
+ * (terrain-edge sides of drawn patches), 15 the draw camera's view-projection (float[16]),
+ * 16 seal records (uvec4 per quad, terrain_seal.glsl),
+ * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
+ * 18 the cache's use distances (patch_cache.h, pool.use_dist). */
+#define BINDINGS 19u
+#define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
+
+static inline VkDescriptorType binding_type(uint32_t i)
+{
+	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+}
+
+struct relief_terrain {
+	struct relief_vk *vk;
+	const struct relief_file *file;
+	struct relief_patch_cache *cache;
+	struct relief_vk_buffer info;
+	VkDescriptorSetLayout set_layout;
+	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
+	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
+	VkPipeline select, commands, borders, factors, draw_fill, draw_cull, draw_wire;
+	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
+	 * at most (every layer drawn, each with four curtains: a loose bound) */
+	uint32_t count, blocks, per_patch, per_draw, max_patches, max_quads, max_draws;
+};
+
+struct relief_terrain_view {
+	struct relief_terrain *t;
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains;
+	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
+	 * matrix is in the push constants), written by the frame's command buffer */
+	struct relief_vk_buffer camera;
+	/* What the CPU reads after a frame: counters and requests, copied at its end; the
+	 * drawn instances, copied when asked for (relief_terrain_view_drawn()) */
+	struct relief_vk_buffer read_counters, read_wants, read_instances;
+	/* The memory of the buffers above: device (all but the last three), readback (those).
+	 * Nothing the device reads or updates every frame lives in memory the CPU maps, which
+	 * on a discrete GPU is system memory across the bus. */
+	struct relief_vk_buffer_group local, readback;
+	VkDescriptorPool pool;
+	VkDescriptorSet set[2];
+	uint32_t parity;
+	uint32_t last_drawn;
+	/* Per view, so that several views' frames can be in flight at once */
+	VkQueryPool stats_pool;
+	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
+	/* The frame in flight (relief_terrain_draw_submit() to relief_terrain_view_wait()):
+	 * its command buffer (VK_NULL_HANDLE: none), fence, and how back faces were culled */
+	VkCommandBuffer pending;
+	VkFence fence;
+	bool gpu_cull, cpu_cull;
+};
+
+/* One global memory barrier between two stage masks. */
+static inline void barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags sa, VkPipelineStageFlags dst,
+                    VkAccessFlags da)
+{
+	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, sa, da };
+	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
+}
