@@ -150,7 +150,7 @@ struct relief_terrain_view {
 
 /* One global memory barrier between two stage masks. */
 static inline void barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags sa, VkPipelineStageFlags dst,
-                    VkAccessFlags da)
+                           VkAccessFlags da)
 {
 	VkMemoryBarrier m = { VK_STRUCTURE_TYPE_MEMORY_BARRIER, NULL, sa, da };
 	vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &m, 0, NULL, 0, NULL);
