@@ -402,6 +402,12 @@ static void test_views_in_flight(void **state)
 		}
 	}
 	assert_true(relief_patch_cache_update(s.cache, FRAMES + 1) >= 0);
+	/* A view destroyed with its frame in flight waits for it and lets go of the cache. */
+	assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[1][1], &views[1], &targets[1], FRAMES + 2, NULL), 0);
+	assert_int_equal(relief_patch_cache_update(s.cache, FRAMES + 2), -EBUSY);
+	relief_terrain_view_destroy(tv[1][1]);
+	tv[1][1] = NULL;
+	assert_true(relief_patch_cache_update(s.cache, FRAMES + 3) >= 0);
 	/* The three views see different terrain: the comparison is not of three equal frames. */
 	assert_true(memcmp(pictures[1][0], pictures[1][1], bytes) != 0 && memcmp(pictures[1][1], pictures[1][2], bytes) != 0);
 	for (int i = 0; i < N; i++) {
