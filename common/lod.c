@@ -1,5 +1,6 @@
 #include <assert.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -31,8 +32,10 @@ int relief_view_check(const struct relief_view *v, const char **why)
 		*why = "near and far planes must satisfy 0 < near < far";
 		return -EINVAL;
 	}
-	if (!(v->tau > 0)) {
-		*why = "tau must be a positive number of pixels";
+	/* The GPU takes tau as a float: beyond FLT_MAX it would become infinite, under which
+	 * even an error segment reaching behind the camera passes (terrain_factors.glsl). */
+	if (!(v->tau > 0 && v->tau <= FLT_MAX)) {
+		*why = "tau must be a positive number of pixels, at most 3.4e38";
 		return -EINVAL;
 	}
 	return 0;

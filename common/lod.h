@@ -24,7 +24,7 @@ struct relief_view {
 };
 
 /* 0, or -EINVAL with a reason for NaN/infinite values, a zero-size viewport, eye equal to
- * target, fov outside (0, pi), near/far not 0 < near < far, or tau <= 0. */
+ * target, fov outside (0, pi), near/far not 0 < near < far, or tau not in (0, FLT_MAX]. */
 int relief_view_check(const struct relief_view *v, const char **why);
 
 /* The camera's orthonormal axes (world): fwd towards the target, right and up as the

@@ -226,6 +226,9 @@ check fly-bad-channels 2 "$relief" fly "$tmp/ps.relief" --channels 9
 expect_text fly-bad-channels-named "--channels"
 vkcheck snap-bad-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau -1 -o "$tmp/x.png"
 expect_text snap-bad-tau-named "tau"
+# beyond the GPU's float tau would become infinite there
+vkcheck snap-huge-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau 3.5e38 -o "$tmp/x.png"
+expect_text snap-huge-tau-named "at most 3.4e38"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
 check snap-onto-input 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 -o "$tmp/ps.relief"
 check snap-depth-onto-png 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 -o "$tmp/a.png" --depth "$tmp/a.png"

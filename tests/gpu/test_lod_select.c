@@ -5,6 +5,7 @@
  * allocations; device limits the terrain needs. Validation layer on, zero messages. */
 #include <assert.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -42,6 +43,12 @@ static void test_view_check(void **state)
 	v = good;
 	v.tau = 0;
 	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	/* beyond the float the GPU takes: infinite there (relief_view_check()) */
+	v.tau = 3.5e38;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	assert_non_null(strstr(why, "tau"));
+	v.tau = FLT_MAX;
+	assert_int_equal(relief_view_check(&v, &why), 0);
 	v = good;
 	v.fovy = M_PI;
 	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
