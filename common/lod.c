@@ -10,6 +10,12 @@ int relief_view_check(const struct relief_view *v, const char **why)
 {
 	const double vals[] = { v->eye.x, v->eye.y, v->eye.z, v->target.x, v->target.y, v->target.z, v->roll,
 	                        v->fovy,  v->znear, v->zfar, v->tau };
+	/* The points first: a tool derives the planes from them, which overflow before they do. */
+	for (size_t i = 0; i < 6; i++)
+		if (isfinite(vals[i]) && !(fabs(vals[i]) <= RELIEF_VIEW_MAX_COORD)) {
+			*why = "the camera and the look point must lie within 1e12 m of the origin on every axis";
+			return -EINVAL;
+		}
 	for (size_t i = 0; i < sizeof(vals) / sizeof(vals[0]); i++)
 		if (!isfinite(vals[i])) {
 			*why = "a camera value is not a finite number";

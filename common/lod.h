@@ -23,8 +23,13 @@ struct relief_view {
 	bool morph;                /* geomorph changes of a block's level (docs/lod.md, "Morphing") */
 };
 
-/* 0, or -EINVAL with a reason for NaN/infinite values, a zero-size viewport, eye equal to
- * target, fov outside (0, pi), near/far not 0 < near < far, or tau not in (0, FLT_MAX]. */
+/* Camera and look point coordinates beyond this (metres) are refused: nothing that far
+ * sees a terrain (whose coordinates are within RELIEF_MAX_COORD), and the squares of such
+ * distances stay well inside float range (the GPU's camera height is a float). */
+#define RELIEF_VIEW_MAX_COORD 1e12
+/* 0, or -EINVAL with a reason for NaN/infinite values, a camera or look point coordinate
+ * beyond RELIEF_VIEW_MAX_COORD, a zero-size viewport, eye equal to target, fov outside
+ * (0, pi), near/far not 0 < near < far, or tau not in (0, FLT_MAX]. */
 int relief_view_check(const struct relief_view *v, const char **why);
 
 /* The camera's orthonormal axes (world): fwd towards the target, right and up as the

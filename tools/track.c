@@ -100,6 +100,12 @@ int track_parse(const char *text, size_t len, struct track *out, char *err, size
 			ret = fail(err, errlen, "line %zu: pitch %g is outside [-90, 90] degrees", line, v[5]);
 			break;
 		}
+		for (int i = 1; i <= 3 && ret == 0; i++)
+			if (!(fabs(v[i]) <= TRACK_MAX_COORD))
+				ret = fail(err, errlen, "line %zu: %s %g m is beyond %g m", line, field_names[i], v[i],
+				           TRACK_MAX_COORD);
+		if (ret < 0)
+			break;
 		if (t.n == cap) {
 			size_t ncap = cap ? 2 * cap : 64;
 			struct track_key *k = realloc(t.keys, ncap * sizeof(*k));

@@ -25,11 +25,14 @@ struct track {
 };
 
 #define TRACK_MAX_KEYS 1000000u
+/* |x|, |y|, |z| of a key at most (metres): its views, look point 1 km ahead included, then
+ * stay within RELIEF_VIEW_MAX_COORD. */
+#define TRACK_MAX_COORD 1e11
 #define TRACK_MAX_BYTES (64u << 20)
 
 /* Parses len bytes of text (need not be NUL-terminated). 0, or -EINVAL with a message naming
  * the line and the problem in err (a bad number, a wrong count, time not increasing, pitch
- * out of range, no keys, too many keys), or -ENOMEM. *out is untouched on error. */
+ * out of range, a position beyond TRACK_MAX_COORD, no keys, too many keys), or -ENOMEM. *out is untouched on error. */
 int track_parse(const char *text, size_t len, struct track *out, char *err, size_t errlen);
 /* Reads and parses a file (at most TRACK_MAX_BYTES). Errors as track_parse, or -errno of
  * opening or reading it, with a message. */

@@ -229,6 +229,8 @@ expect_text snap-bad-tau-named "tau"
 # beyond the GPU's float tau would become infinite there
 vkcheck snap-huge-tau 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --tau 3.5e38 -o "$tmp/x.png"
 expect_text snap-huge-tau-named "at most 3.4e38"
+vkcheck snap-far-camera 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,1e300 --look 1,1,0 -o "$tmp/x.png"
+expect_text snap-far-camera-named "within 1e12 m"
 vkcheck snap-missing-look 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 -o "$tmp/x.png"
 check snap-onto-input 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 -o "$tmp/ps.relief"
 check snap-depth-onto-png 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 -o "$tmp/a.png" --depth "$tmp/a.png"

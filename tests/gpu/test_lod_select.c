@@ -49,6 +49,15 @@ static void test_view_check(void **state)
 	assert_non_null(strstr(why, "tau"));
 	v.tau = FLT_MAX;
 	assert_int_equal(relief_view_check(&v, &why), 0);
+	/* a camera beyond 1e12 m (1e39 was infinite as the GPU's float camera height) */
+	v = good;
+	v.eye.z = 1e39;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
+	assert_non_null(strstr(why, "1e12"));
+	v.eye.z = RELIEF_VIEW_MAX_COORD;
+	assert_int_equal(relief_view_check(&v, &why), 0);
+	v.target.x = -1.5e12;
+	assert_int_equal(relief_view_check(&v, &why), -EINVAL);
 	v = good;
 	v.fovy = M_PI;
 	assert_int_equal(relief_view_check(&v, &why), -EINVAL);

@@ -59,6 +59,7 @@ static void test_parse_errors(void **state)
 	expect_error("0 1 2 3 4 5 inf\n", "roll: 'inf' is not a finite number");
 	expect_error("0 1 2 3 4 5 nan\n", "roll: 'nan' is not a finite number");
 	expect_error("0 1 2 1e999 4 5 6\n", "z: '1e999' is not a finite number");
+	expect_error("0 1 2 3 4 5 6\n1 1 -2e11 3 4 5 6\n", "line 2: y -2e+11 m is beyond 1e+11 m");
 	expect_error("0 1 2 3 4 5 6\n1 1 2 3 4 5 0x\n", "line 2: roll: '0x' is not a number");
 	expect_error("0 1 2 3 4 5 000000000000000000000000000000000000000000000000000000000000000001\n",
 	             "line 1: roll: a number of 66 characters");
