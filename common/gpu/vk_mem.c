@@ -19,8 +19,8 @@
 static int memory_rank(VkMemoryPropertyFlags f, enum relief_vk_memory_use use)
 {
 	const VkMemoryPropertyFlags host = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-	const bool local = f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, visible = f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
-		   cached = f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+	const bool local = f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, visible = f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT;
+	const bool cached = f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
 	if (f & MEMORY_NEVER)
 		return -1;
 	switch (use) {
