@@ -101,10 +101,8 @@ int relief_grid_render(struct relief_grid *g, const struct relief_grid_params *p
 	int ret = relief_vk_cmd_begin(vk, &cmd);
 	if (ret < 0)
 		return ret;
-	if (g->timer.pool) {
-		relief_vk_timer_reset(&g->timer, cmd);
-		relief_vk_timer_write(&g->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
-	}
+	relief_vk_timer_reset(&g->timer, cmd);
+	relief_vk_timer_write(&g->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
 	if (g->stats_pool)
 		vkCmdResetQueryPool(cmd, g->stats_pool, 0, 1);
 	const float clear[4] = { 0.0f, 0.0f, 0.0f, 1.0f };
@@ -123,8 +121,7 @@ int relief_grid_render(struct relief_grid *g, const struct relief_grid_params *p
 	if (g->stats_pool)
 		vkCmdEndQuery(cmd, g->stats_pool, 0);
 	relief_vk_target_end(g->target, cmd);
-	if (g->timer.pool)
-		relief_vk_timer_write(&g->timer, cmd, 1, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+	relief_vk_timer_write(&g->timer, cmd, 1, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
 	if ((ret = relief_vk_cmd_submit_wait(vk, cmd)) < 0)
 		return ret;
 

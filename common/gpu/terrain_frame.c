@@ -108,10 +108,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	int ret = relief_vk_cmd_begin(vk, &cmd);
 	if (ret < 0)
 		return ret;
-	if (v->timer.pool) {
-		relief_vk_timer_reset(&v->timer, cmd);
-		relief_vk_timer_write(&v->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
-	}
+	relief_vk_timer_reset(&v->timer, cmd);
+	relief_vk_timer_write(&v->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
 	if (v->stats_pool)
 		vkCmdResetQueryPool(cmd, v->stats_pool, 0, 1);
 	/* The work submitted before (this view's last frame, other views' frames, decodes) is
@@ -150,8 +148,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
-	if (v->timer.pool)
-		relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+	relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
 	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) | (view->morph ? MODE_MORPH : 0u);
 	dp.mode = mode;
@@ -168,8 +165,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
 	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
-	if (v->timer.pool)
-		relief_vk_timer_write(&v->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+	relief_vk_timer_write(&v->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
@@ -198,8 +194,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	                &(VkBufferCopy){ 0, 0, sizeof(struct want) * WANT_CAP });
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
 	        VK_ACCESS_HOST_READ_BIT);
-	if (v->timer.pool)
-		relief_vk_timer_write(&v->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+	relief_vk_timer_write(&v->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
 	if ((ret = relief_vk_cmd_submit(vk, cmd, v->fence)) < 0)
 		return ret;
 	v->pending = cmd;
@@ -234,12 +229,15 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */
 	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
-	if (v->stats_pool)
-		vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(uint64_t), &s.triangles, sizeof(uint64_t),
-		                      VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT);
-	if (v->timer.pool && (relief_vk_timer_ns(vk, &v->timer, 0, 1, &s.select_ns) < 0 ||
-	                      relief_vk_timer_ns(vk, &v->timer, 0, 2, &s.lod_ns) < 0 ||
-	                      relief_vk_timer_ns(vk, &v->timer, 0, 3, &s.gpu_ns) < 0))
+	if (v->stats_pool &&
+	    (ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(uint64_t),
+	                                                     &s.triangles, sizeof(uint64_t),
+	                                                     VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+	                           "vkGetQueryPoolResults")) < 0)
+		return ret;
+	/* No timestamps on this queue (-ENOTSUP): the times stay 0. */
+	if (relief_vk_timer_ns(vk, &v->timer, 0, 1, &s.select_ns) < 0 ||
+	    relief_vk_timer_ns(vk, &v->timer, 0, 2, &s.lod_ns) < 0 || relief_vk_timer_ns(vk, &v->timer, 0, 3, &s.gpu_ns) < 0)
 		s.select_ns = s.lod_ns = s.gpu_ns = 0;
 	/* Requests, made in id order: coarser patches first (lower ids are coarser), so that a
 	 * parent is on its way before its child is asked for and a whole chain is accepted in

@@ -212,8 +212,9 @@ int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd);
 
 /* GPU timestamps: `count` slots; relief_vk_timer_reset() records the reset into a command
  * buffer before any relief_vk_timer_write(); relief_vk_timer_ns() reads the elapsed time
- * between two slots after the command buffer completed, in nanoseconds. -ENOTSUP when the
- * queue has no timestamp support. */
+ * between two slots after the command buffer completed, in nanoseconds. init returns
+ * -ENOTSUP when the queue has no timestamp support and leaves a timer without a pool, for
+ * which reset and write record nothing and relief_vk_timer_ns() returns -ENOTSUP. */
 struct relief_vk_timer {
 	VkQueryPool pool;
 	uint32_t count;

@@ -79,18 +79,22 @@ void relief_vk_timer_finish(struct relief_vk *vk, struct relief_vk_timer *t)
 
 void relief_vk_timer_reset(struct relief_vk_timer *t, VkCommandBuffer cmd)
 {
-	vkCmdResetQueryPool(cmd, t->pool, 0, t->count);
+	if (t->pool)
+		vkCmdResetQueryPool(cmd, t->pool, 0, t->count);
 }
 
 void relief_vk_timer_write(struct relief_vk_timer *t, VkCommandBuffer cmd, uint32_t slot,
                            VkPipelineStageFlagBits stage)
 {
-	vkCmdWriteTimestamp(cmd, stage, t->pool, slot);
+	if (t->pool)
+		vkCmdWriteTimestamp(cmd, stage, t->pool, slot);
 }
 
 int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t from, uint32_t to,
                        uint64_t *ns)
 {
+	if (!t->pool)
+		return -ENOTSUP;
 	if (from >= t->count || to >= t->count)
 		return -EINVAL;
 	uint64_t stamps[2];
