@@ -239,13 +239,13 @@ void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)
 	/* Timestamps: batch start, decode pass done, normals pass done. */
 	uint64_t t[3];
 	uint32_t first = (uint32_t)(b - c->batches) * 3;
-	const double period = c->vk->props.limits.timestampPeriod;
 	if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 3, sizeof(t), t, sizeof(uint64_t),
 	                          VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
 		return;
-	c->stats.gpu_ns += (uint64_t)((double)(t[2] - t[0]) * period);
-	c->stats.gpu_decode_ns += (uint64_t)((double)(t[1] - t[0]) * period);
-	c->stats.gpu_normals_ns += (uint64_t)((double)(t[2] - t[1]) * period);
+	/* In order on the queue: the differences are not negative (but across the counter's wrap) */
+	c->stats.gpu_ns += (uint64_t)relief_vk_ticks_ns(c->vk, t[0], t[2]);
+	c->stats.gpu_decode_ns += (uint64_t)relief_vk_ticks_ns(c->vk, t[0], t[1]);
+	c->stats.gpu_normals_ns += (uint64_t)relief_vk_ticks_ns(c->vk, t[1], t[2]);
 }
 
 int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)

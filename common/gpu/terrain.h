@@ -82,6 +82,12 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
                                struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts);
 int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_view *v, struct relief_terrain_stats *st);
+/* The device time from the earliest start to the latest end of the views' last frames
+ * (each waited for): what a round of frames costs when a GPU overlaps them, which the sum
+ * of their gpu_ns would count more than once. -EBUSY while one is in flight, -ENODATA
+ * when one has no timed frame (none waited for, or no timestamps on this queue). */
+int relief_terrain_views_span_ns(struct relief_terrain *t, struct relief_terrain_view *const *views, uint32_t n,
+                                 uint64_t *ns);
 
 /* The last frame's drawn patch ids (unordered), at most cap, for tests and statistics:
  * copied out of device memory and waited for. Returns the count or a negative errno

@@ -216,6 +216,7 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 		ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &v->fence), "vkResetFences");
 	vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &v->pending);
 	v->pending = VK_NULL_HANDLE;
+	v->timed = false;
 	relief_patch_cache_release(t->cache);
 	if (ret < 0)
 		return ret;
@@ -236,9 +237,17 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	                           "vkGetQueryPoolResults")) < 0)
 		return ret;
 	/* No timestamps on this queue (-ENOTSUP): the times stay 0. */
-	if (relief_vk_timer_ns(vk, &v->timer, 0, 1, &s.select_ns) < 0 ||
-	    relief_vk_timer_ns(vk, &v->timer, 0, 2, &s.lod_ns) < 0 || relief_vk_timer_ns(vk, &v->timer, 0, 3, &s.gpu_ns) < 0)
-		s.select_ns = s.lod_ns = s.gpu_ns = 0;
+	uint64_t stamp[4];
+	v->timed = true;
+	for (uint32_t i = 0; i < 4 && v->timed; i++)
+		v->timed = relief_vk_timer_ticks(vk, &v->timer, i, &stamp[i]) == 0;
+	if (v->timed) {
+		s.select_ns = (uint64_t)relief_vk_ticks_ns(vk, stamp[0], stamp[1]);
+		s.lod_ns = (uint64_t)relief_vk_ticks_ns(vk, stamp[0], stamp[2]);
+		s.gpu_ns = (uint64_t)relief_vk_ticks_ns(vk, stamp[0], stamp[3]);
+		v->start_ticks = stamp[0];
+		v->end_ticks = stamp[3];
+	}
 	/* Requests, made in id order: coarser patches first (lower ids are coarser), so that a
 	 * parent is on its way before its child is asked for and a whole chain is accepted in
 	 * one frame. The cache serves the nearest first (its ancestors ahead of it). */
@@ -261,4 +270,28 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 {
 	int ret = relief_terrain_draw_submit(t, v, view, target, frame, opts);
 	return ret < 0 ? ret : relief_terrain_view_wait(t, v, st);
+}
+
+int relief_terrain_views_span_ns(struct relief_terrain *t, struct relief_terrain_view *const *views, uint32_t n,
+                                 uint64_t *ns)
+{
+	if (n == 0)
+		return -EINVAL;
+	for (uint32_t i = 0; i < n; i++) {
+		if (views[i]->pending)
+			return -EBUSY;
+		if (!views[i]->timed)
+			return -ENODATA;
+	}
+	/* Relative to the first view's start, so that the counter's wrap does not matter: the
+	 * frames of one round are far closer together than half its range. */
+	int64_t lo = 0, hi = 0;
+	for (uint32_t i = 0; i < n; i++) {
+		int64_t a = relief_vk_ticks_ns(t->vk, views[0]->start_ticks, views[i]->start_ticks);
+		int64_t b = relief_vk_ticks_ns(t->vk, views[0]->start_ticks, views[i]->end_ticks);
+		lo = a < lo ? a : lo;
+		hi = b > hi ? b : hi;
+	}
+	*ns = (uint64_t)(hi - lo);
+	return 0;
 }

@@ -141,6 +141,10 @@ struct relief_terrain_view {
 	/* Per view, so that several views' frames can be in flight at once */
 	VkQueryPool stats_pool;
 	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
+	/* The last frame waited for: whether its timestamps were read, and its start and end
+	 * (raw, relief_terrain_views_span_ns()) */
+	bool timed;
+	uint64_t start_ticks, end_ticks;
 	/* The frame in flight (relief_terrain_draw_submit() to relief_terrain_view_wait()):
 	 * its command buffer (VK_NULL_HANDLE: none), fence, and how back faces were culled */
 	VkCommandBuffer pending;

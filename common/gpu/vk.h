@@ -226,3 +226,9 @@ void relief_vk_timer_write(struct relief_vk_timer *t, VkCommandBuffer cmd, uint3
                            VkPipelineStageFlagBits stage);
 int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t from,
                        uint32_t to, uint64_t *ns);
+/* The raw timestamp in `slot` (masked to the queue's valid bits), for comparing timers
+ * written on one queue; relief_vk_ticks_ns() is the signed time in nanoseconds from one
+ * such stamp to another, across the counter's wrap (while they are less than half its
+ * range apart). */
+int relief_vk_timer_ticks(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t slot, uint64_t *ticks);
+int64_t relief_vk_ticks_ns(const struct relief_vk *vk, uint64_t from, uint64_t to);

@@ -1,5 +1,6 @@
 /* One-shot command submission and GPU timestamps. */
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 
 #include "pipeline.h"
@@ -90,25 +91,48 @@ void relief_vk_timer_write(struct relief_vk_timer *t, VkCommandBuffer cmd, uint3
 		vkCmdWriteTimestamp(cmd, stage, t->pool, slot);
 }
 
-int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t from, uint32_t to,
-                       uint64_t *ns)
+int relief_vk_timer_ticks(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t slot, uint64_t *ticks)
 {
 	if (!t->pool)
 		return -ENOTSUP;
-	if (from >= t->count || to >= t->count)
+	if (slot >= t->count)
 		return -EINVAL;
-	uint64_t stamps[2];
-	int ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, t->pool, from, 1, sizeof(uint64_t),
-	                          &stamps[0], sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+	int ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, t->pool, slot, 1, sizeof(uint64_t), ticks,
+	                                                    sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
 	                          "vkGetQueryPoolResults");
+	if (ret == 0 && vk->timestamp_valid_bits < 64)
+		*ticks &= (1ull << vk->timestamp_valid_bits) - 1;
+	return ret;
+}
+
+int64_t relief_vk_ticks_ns(const struct relief_vk *vk, uint64_t from, uint64_t to)
+{
+	/* The difference modulo 2^bits, read as signed: right while |to - from| is under half
+	 * the counter's range (at least 2^35 ticks where a queue has timestamps at all). */
+	uint32_t bits = vk->timestamp_valid_bits < 64 ? vk->timestamp_valid_bits : 64;
+	if (bits == 0)
+		return 0;
+	uint64_t d = to - from;
+	int64_t signed_ticks;
+	if (bits < 64) {
+		d &= (1ull << bits) - 1;
+		signed_ticks = d >= 1ull << (bits - 1) ? (int64_t)d - (int64_t)(1ull << bits) : (int64_t)d;
+	} else {
+		signed_ticks = (int64_t)d;
+	}
+	return (int64_t)llround((double)signed_ticks * vk->props.limits.timestampPeriod);
+}
+
+int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t from, uint32_t to,
+                       uint64_t *ns)
+{
+	uint64_t a, b;
+	int ret = relief_vk_timer_ticks(vk, t, from, &a);
 	if (ret == 0)
-		ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, t->pool, to, 1, sizeof(uint64_t),
-		                      &stamps[1], sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
-		                      "vkGetQueryPoolResults");
+		ret = relief_vk_timer_ticks(vk, t, to, &b);
 	if (ret < 0)
 		return ret;
-	uint64_t mask = vk->timestamp_valid_bits >= 64 ? UINT64_MAX : (1ull << vk->timestamp_valid_bits) - 1;
-	uint64_t ticks = (stamps[1] - stamps[0]) & mask;
-	*ns = (uint64_t)((double)ticks * vk->props.limits.timestampPeriod + 0.5);
+	int64_t d = relief_vk_ticks_ns(vk, a, b);
+	*ns = d > 0 ? (uint64_t)d : 0;
 	return 0;
 }

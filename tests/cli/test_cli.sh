@@ -180,9 +180,18 @@ if awk -F, -v l="$levels" 'BEGIN { n = split(l, v, ","); s = 0; for (i = 1; i <=
 else
 	echo "FAIL fly patches per level: '$levels'"; fails=$((fails + 1))
 fi
+# One channel: the round's span on the device is the channel's own time, frame for frame.
+span=$(sed -n 's/.*"gpu_ms_median":\([0-9.]*\).*/\1/p' <<<"$LAST_OUT")
+busy=$(sed -n 's/.*"gpu_busy_ms_median":\([0-9.]*\).*/\1/p' <<<"$LAST_OUT")
+if [ -n "$span" ] && [ "$span" = "$busy" ] && awk -v s="$span" 'BEGIN { exit !(s > 0) }'; then
+	passes=$((passes + 1))
+else
+	echo "FAIL fly GPU time of one channel: span '$span', channel '$busy'"; fails=$((fails + 1))
+fi
 printf '# t x y z heading pitch roll\n0 60000 40000 3000 45 -10 0\n1 61000 41000 3000 90 -90 30\n' >"$tmp/good.track"
 vkcheck fly-track 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 2 --channels 2 --size 48x32 --out "$tmp/fly"
 expect_text fly-summary "3 frames of 2 channel(s)"
+expect_text fly-summary-span "(first channel's start to last one's end; the channels' own times add up to "
 expect_text fly-summary-levels "last frame         patches drawn per level 0..3:"
 [ "$(ls "$tmp/fly" | wc -l)" -eq 6 ] || { echo "FAIL fly frames written: $(ls "$tmp/fly")"; fails=$((fails + 1)); }
 # Each channel is drawn into a target of its own (all in flight at once): the side-by-side

@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "gpu_test.h"
 #include "lod_scene.h"
@@ -382,10 +383,14 @@ static void test_views_in_flight(void **state)
 		}
 	}
 	uint32_t ids[4];
+	uint64_t span;
+	assert_int_equal(relief_terrain_views_span_ns(s.terrain, tv[1], N, &span), -ENODATA); /* nothing drawn yet */
 	for (uint64_t frame = 1; frame <= FRAMES; frame++) {
 		/* k = 0: one frame at a time; k = 1: all submitted, then waited for. */
 		for (int k = 0; k < 2; k++) {
 			assert_true(relief_patch_cache_update(s.cache, frame) >= 0);
+			struct timespec t0, t1;
+			clock_gettime(CLOCK_MONOTONIC, &t0);
 			for (int i = 0; i < N; i++) {
 				assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[k][i], &views[i], &targets[i], frame, NULL), 0);
 				if (k == 0)
@@ -397,9 +402,35 @@ static void test_views_in_flight(void **state)
 				assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[1][0], &views[0], &targets[0], frame, NULL),
 				                 -EBUSY);
 				assert_int_equal(relief_terrain_view_drawn(tv[1][0], ids, 4), -EBUSY);
+				assert_int_equal(relief_terrain_views_span_ns(s.terrain, tv[1], N, &span), -EBUSY);
 				for (int i = 0; i < N; i++)
 					assert_int_equal(relief_terrain_view_wait(s.terrain, tv[1][i], &st[1][i]), 0);
+				clock_gettime(CLOCK_MONOTONIC, &t1);
 				assert_int_equal(relief_terrain_view_wait(s.terrain, tv[1][0], NULL), -EINVAL);
+				/* The round's span on the device: at least each frame's own time, at most
+				 * the host's time from the first submission to the last wait; of one
+				 * view, its frame's time. */
+				if (vk->timestamp_valid_bits) {
+					uint64_t wall = (uint64_t)(t1.tv_sec - t0.tv_sec) * 1000000000u + (uint64_t)t1.tv_nsec -
+					                (uint64_t)t0.tv_nsec;
+					assert_int_equal(relief_terrain_views_span_ns(s.terrain, tv[1], N, &span), 0);
+					print_message("frame %llu: span %.3f ms, frames %.3f + %.3f + %.3f ms, wall %.3f ms\n",
+					              (unsigned long long)frame, span / 1e6, st[1][0].gpu_ns / 1e6,
+					              st[1][1].gpu_ns / 1e6, st[1][2].gpu_ns / 1e6, wall / 1e6);
+					for (int i = 0; i < N; i++)
+						assert_true(span >= st[1][i].gpu_ns && st[1][i].gpu_ns > 0);
+					assert_true(span <= wall);
+					/* A CPU device (lavapipe) runs the frames one after the other: the span
+					 * then also covers their sum. A GPU may overlap them. */
+					if (vk->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU)
+						assert_true(span >= st[1][0].gpu_ns + st[1][1].gpu_ns + st[1][2].gpu_ns);
+					struct relief_terrain_view *reversed[N] = { tv[1][2], tv[1][1], tv[1][0] };
+					uint64_t span_reversed;
+					assert_int_equal(relief_terrain_views_span_ns(s.terrain, reversed, N, &span_reversed), 0);
+					assert_true(span_reversed + 1 >= span && span_reversed <= span + 1); /* each rounded once */
+					assert_int_equal(relief_terrain_views_span_ns(s.terrain, &tv[1][2], 1, &span), 0);
+					assert_int_equal(span, st[1][2].gpu_ns);
+				}
 			}
 			for (int i = 0; i < N; i++) {
 				memcpy(pictures[k][i], targets[i].color_readback.map, (size_t)BW * BH * 4);
