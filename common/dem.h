@@ -15,6 +15,10 @@ struct relief_dem {
 	uint32_t source_units; /* enum relief_units */
 	char *crs_wkt;         /* WKT or PROJ string (OSRSetFromUserInput syntax); NULL or "": none */
 	int32_t *raw16;        /* NULL, or the source's 16-bit integer samples (for baselines) */
+	/* Samples the source gave as heights that are not finite or beyond RELIEF_MAX_HEIGHT
+	 * (format.h): stored as no-data. One of them, by column and row in the source. */
+	uint64_t dropped;
+	uint32_t dropped_col, dropped_row;
 };
 
 void relief_dem_finish(struct relief_dem *d);

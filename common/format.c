@@ -214,7 +214,8 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	    !finite_in(r.spacing_y, RELIEF_SPACING_MIN, RELIEF_SPACING_MAX))
 		return bad(err, err_size, "sample spacing (%g, %g) m outside [%g, %g]", r.spacing_x, r.spacing_y,
 		           RELIEF_SPACING_MIN, RELIEF_SPACING_MAX);
-	if (!finite_in(r.height_min, -1e6, 1e6) || !finite_in(r.height_max, r.height_min, 1e6))
+	if (!finite_in(r.height_min, -RELIEF_MAX_HEIGHT, RELIEF_MAX_HEIGHT) ||
+	    !finite_in(r.height_max, r.height_min, RELIEF_MAX_HEIGHT))
 		return bad(err, err_size, "height range [%g, %g] m is not valid", r.height_min, r.height_max);
 	if (r.valid_samples < 1 || r.valid_samples > (uint64_t)r.width * r.height)
 		return bad(err, err_size, "valid sample count %llu outside 1..%llu", (unsigned long long)r.valid_samples,
@@ -316,7 +317,7 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): stream [%llu, +%u) outside the data section",
 			          id, l, px, py, (unsigned long long)r.offset, r.size);
 		else if (!isfinite(r.height_min) || !isfinite(r.height_max) || r.height_min > r.height_max ||
-		         fabs(r.height_min) > 1e6 || fabs(r.height_max) > 1e6)
+		         fabs(r.height_min) > RELIEF_MAX_HEIGHT || fabs(r.height_max) > RELIEF_MAX_HEIGHT)
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad height range", id, l, px, py);
 		else if (!isfinite(r.error) || r.error < 0 || r.error > 1e6)
 			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad error bound %g", id, l, px, py, r.error);

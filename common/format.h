@@ -36,6 +36,9 @@
 #define RELIEF_MAX_COORD 1e9
 #define RELIEF_SPACING_MIN 1e-6
 #define RELIEF_SPACING_MAX 1e7
+/* Heights a file may hold, metres: |h| <= RELIEF_MAX_HEIGHT (checked on open; the importer
+ * takes a sample beyond it, or one that is not a number, as no-data and counts it). */
+#define RELIEF_MAX_HEIGHT 1e6
 
 enum relief_patch_flags {
 	RELIEF_PATCH_EMPTY = 1u << 0,  /* no valid sample in its footprint: no stream */

@@ -279,9 +279,15 @@ int dem_import_dataset(void *dataset, const char *path, const struct dem_import_
 				ok = true;
 			} else {
 				h = (v * scale + offset) * unit;
-				ok = use_gmask ? gmask[s] != 0 : !(o->has_nodata && v == o->nodata);
+				ok = use_gmask ? gmask[s] != 0 : !(o->has_nodata && (v == o->nodata || (isnan(v) && isnan(o->nodata))));
 			}
-			ok = ok && isfinite(h) && fabs(h) < 1e6;
+			if (ok && !(isfinite(h) && fabs(h) <= RELIEF_MAX_HEIGHT)) {
+				if (d.dropped++ == 0) {
+					d.dropped_col = (uint32_t)x;
+					d.dropped_row = (uint32_t)sy;
+				}
+				ok = false;
+			}
 			d.valid[i] = ok;
 			d.heights[i] = ok ? (float)h : 0.0f;
 			if (raw16)
@@ -290,7 +296,11 @@ int dem_import_dataset(void *dataset, const char *path, const struct dem_import_
 		}
 	}
 	if (!valid) {
-		ret = fail(err, n, "%s: every sample is no-data", path);
+		if (d.dropped)
+			ret = fail(err, n, "%s: every sample is no-data (%llu not finite or beyond %g m)", path,
+			           (unsigned long long)d.dropped, RELIEF_MAX_HEIGHT);
+		else
+			ret = fail(err, n, "%s: every sample is no-data", path);
 		ret = -ENODATA;
 		goto out;
 	}

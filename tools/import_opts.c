@@ -1,4 +1,5 @@
 #include <errno.h>
+#include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -58,6 +59,10 @@ bool import_option(const char *cmd, int c, const char *arg, struct dem_import_op
 		return true;
 	case OPT_NODATA:
 		o->has_nodata = true;
+		if (!strcmp(arg, "nan")) { /* float rasters often mark no-data with NaN */
+			o->nodata = NAN;
+			return true;
+		}
 		return cli_parse_double(cmd, "--nodata", arg, &o->nodata);
 	case OPT_RAW_SIZE:
 		return cli_parse_size(cmd, "--raw-size", arg, &o->raw_width, &o->raw_height);

@@ -29,7 +29,8 @@ enum {
 	"      --scale S, --offset O    height = value * S + O (default: the file's, else 1 and 0)\n" \
 	"      --units m|ft             units of those heights (default m); stored as metres\n"   \
 	"      --spacing METRES         sample spacing for rasters without georeferencing\n"      \
-	"      --nodata V               value meaning no data (default: the file's NoData)\n"     \
+	"      --nodata V|nan           value meaning no data (default: the file's NoData); heights\n" \
+	"                               not finite or beyond 1e6 m are no-data too (counted)\n"   \
 	"      --raw-size WxH --raw-type int16|float32 [--raw-endian little|big]\n"               \
 	"                               read INPUT as headerless raw samples\n"
 

@@ -104,6 +104,16 @@ expect_text pack-png-needs-spacing-named "--spacing"
 printf '[import]\nspacing = ten\n' > "$tmp/nosidecar.png.relief-import"
 check pack-bad-sidecar 2 "$relief" pack "$tmp/nosidecar.png" "$tmp/x.relief" -t 1
 expect_text pack-bad-sidecar-named "spacing"
+# Heights that cannot be heights are no-data, and pack says how many and where (even with -q);
+# NaN may be named the no-data value, which silences it for NaN. A 3 x 2 float32 raster:
+# 100 m, +inf, 100 m / NaN, 100 m, 100 m.
+printf '\x00\x00\xc8\x42\x00\x00\x80\x7f\x00\x00\xc8\x42\x00\x00\xc0\x7f\x00\x00\xc8\x42\x00\x00\xc8\x42' >"$tmp/odd.f32"
+check pack-impossible 0 "$relief" pack "$tmp/odd.f32" "$tmp/odd.relief" -t 1 -q --raw-size 3x2 --raw-type float32 --spacing 30
+expect_text pack-impossible-named "odd.f32: 2 sample(s) not finite or beyond 1e+06 m (one at column 1, row 0) stored as no-data"
+check pack-impossible-nan 0 "$relief" pack "$tmp/odd.f32" "$tmp/odd.relief" -t 1 -q --raw-size 3x2 --raw-type float32 --spacing 30 --nodata nan
+expect_text pack-impossible-nan-named "odd.f32: 1 sample(s) not finite or beyond 1e+06 m (one at column 1, row 0)"
+check info-impossible 0 "$relief" info "$tmp/odd.relief"
+expect_text info-impossible-valid "4 valid samples"
 check pack-raw-half 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief" -t 1 --raw-size 4x4
 expect_text pack-raw-half-named "--raw-size and --raw-type"
 # bad input keeps what is already stored

@@ -108,10 +108,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		for (size_t i = 0; i < (size_t)W * H; i++)
 			if (d.valid[i]) {
 				valid++;
-				if (!isfinite(d.heights[i]) || fabsf(d.heights[i]) >= 1e6f)
+				if (!isfinite(d.heights[i]) || fabsf(d.heights[i]) > RELIEF_MAX_HEIGHT)
 					abort();
 			}
-		if (!valid)
+		if (!valid || d.dropped > (uint64_t)W * H - valid)
+			abort();
+		/* A dropped sample named by its source position is no-data (rows may be flipped). */
+		if (d.dropped && (d.dropped_col >= (uint32_t)W || d.dropped_row >= (uint32_t)H ||
+		                  (d.valid[(size_t)d.dropped_row * W + d.dropped_col] &&
+		                   d.valid[(size_t)(H - 1 - d.dropped_row) * W + d.dropped_col])))
 			abort();
 		struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0, .threads = 1 };
 		uint8_t *img;

@@ -180,6 +180,74 @@ static void gdal_write(const char *driver, const char *path, int w, int h, int b
 	GDALClose(mem);
 }
 
+/* Heights that cannot be heights (not finite, or beyond RELIEF_MAX_HEIGHT after scale and
+ * units) are no-data, and counted with one of their positions so that the packer can say
+ * so; the limit itself is a height; a declared NaN no-data is not counted. */
+static void test_impossible_heights(void **state)
+{
+	enum { W = 8, H = 4 };
+	float v[W * H];
+	for (int i = 0; i < W * H; i++)
+		v[i] = 100.0f + (float)i;
+	v[0 * W + 1] = NAN;
+	v[0 * W + 2] = INFINITY;
+	v[1 * W + 3] = 1e30f;
+	v[1 * W + 4] = -1000001.0f;
+	v[2 * W + 5] = 1e6f;  /* the limit: kept */
+	v[2 * W + 6] = -1e6f; /* kept */
+	write_file(tmp("bad.raw"), v, sizeof(v));
+	struct dem_import_options o = { .raw_width = W, .raw_height = H, .raw_type = "float32",
+	                                 .has_spacing = true, .spacing = 30 };
+	struct relief_dem d;
+	char err[512];
+	assert_int_equal(import(tmp("bad.raw"), &o, &d, err), 0);
+	assert_int_equal(d.dropped, 4);
+	assert_int_equal(d.dropped_col, 1);
+	assert_int_equal(d.dropped_row, 0);
+	for (int i = 0; i < W * H; i++) {
+		bool bad = i == 1 || i == 2 || i == W + 3 || i == W + 4;
+		assert_int_equal(d.valid[i], !bad);
+		if (!bad)
+			assert_true(d.heights[i] == v[i]);
+	}
+	relief_dem_finish(&d);
+	/* NaN declared as no-data: only the other three are counted. */
+	o.has_nodata = true;
+	o.nodata = NAN;
+	assert_int_equal(import(tmp("bad.raw"), &o, &d, err), 0);
+	assert_int_equal(d.dropped, 3);
+	assert_int_equal(d.dropped_col, 2);
+	relief_dem_finish(&d);
+	/* The same in a GeoTIFF whose NoData is NaN (GDAL's mask). */
+	const double nan_nodata = NAN, gt[6] = { 500000, 30, 0, 5000000, 0, -30 };
+	gdal_write("GTiff", tmp("bad.tif"), W, H, 1, GDT_Float32, v, gt, "EPSG:32633", &nan_nodata);
+	struct dem_import_options ot = { 0 };
+	assert_int_equal(import(tmp("bad.tif"), &ot, &d, err), 0);
+	assert_int_equal(d.dropped, 3);
+	relief_dem_finish(&d);
+	/* The limit applies to the scaled height: 20,000 x 100 m is beyond it. */
+	int16_t q[W * H];
+	for (int i = 0; i < W * H; i++)
+		q[i] = (int16_t)(i == 9 ? 20000 : 10 * i);
+	write_file(tmp("scaled.raw"), q, sizeof(q));
+	struct dem_import_options os = { .raw_width = W, .raw_height = H, .raw_type = "int16", .has_scale = true,
+	                                  .scale = 100, .has_spacing = true, .spacing = 30 };
+	assert_int_equal(import(tmp("scaled.raw"), &os, &d, err), 0);
+	assert_int_equal(d.dropped, 1);
+	assert_int_equal(d.dropped_col, 1);
+	assert_int_equal(d.dropped_row, 1);
+	assert_false(d.valid[9]);
+	relief_dem_finish(&d);
+	/* Nothing left: refused, saying why. */
+	for (int i = 0; i < W * H; i++)
+		v[i] = i % 2 ? NAN : 3e6f;
+	write_file(tmp("none.raw"), v, sizeof(v));
+	o.has_nodata = false;
+	assert_int_equal(import(tmp("none.raw"), &o, &d, err), -ENODATA);
+	assert_non_null(strstr(err, "every sample is no-data (32 not finite or beyond 1e+06 m)"));
+}
+
+
 static void test_terrain_rgb(void **state)
 {
 	enum { W = 40, H = 30 };
@@ -392,6 +460,7 @@ int main(void)
 		cmocka_unit_test(test_alps_normalised),
 		cmocka_unit_test(test_luxembourg_geographic),
 		cmocka_unit_test(test_raw),
+		cmocka_unit_test(test_impossible_heights),
 		cmocka_unit_test(test_terrain_rgb),
 		cmocka_unit_test(test_hgt),
 		cmocka_unit_test(test_projected_and_units),
