@@ -550,6 +550,19 @@ void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_
 	relief_patch_window(&f->layout, f->hdr.width, f->hdr.height, l, px, py, win);
 }
 
+void relief_mask_blocks(const uint8_t *mask, uint32_t patch_size, uint8_t *has_data)
+{
+	const uint32_t blocks = (patch_size - 1) / RELIEF_BLOCK_CELLS;
+	for (uint32_t by = 0; by < blocks; by++)
+		for (uint32_t bx = 0; bx < blocks; bx++) {
+			uint8_t any = 0;
+			for (uint32_t y = by * RELIEF_BLOCK_CELLS; y <= (by + 1) * RELIEF_BLOCK_CELLS && !any; y++)
+				for (uint32_t x = bx * RELIEF_BLOCK_CELLS; x <= (bx + 1) * RELIEF_BLOCK_CELLS; x++)
+					any |= mask[(size_t)y * patch_size + x];
+			has_data[by * blocks + bx] = any != 0;
+		}
+}
+
 int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask)
 {
 	struct relief_patch_record r;

@@ -134,3 +134,8 @@ void relief_file_block_ranges(const struct relief_file *f, uint32_t id, float *r
 void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_window *win);
 /* 1 byte per interior sample (P x P), 1 = valid. -EBADMSG for a corrupt mask. */
 int relief_file_mask(const struct relief_file *f, uint32_t id, uint8_t *mask);
+/* Whether each block of a patch (blocks^2 bytes, raster order) has a valid sample among
+ * its (16 + 1)^2, from the patch's validity bytes (relief_file_mask()). A renderer that
+ * hides no-data per fragment by the nearest sample shows nothing of a block without one:
+ * every point of the block is nearest to one of its own samples. */
+void relief_mask_blocks(const uint8_t *mask, uint32_t patch_size, uint8_t *has_data);

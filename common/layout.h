@@ -19,6 +19,7 @@
 #define RELIEF_MAX_LEVELS 16
 #define RELIEF_BLOCK_CELLS 16
 #define RELIEF_BLOCK_LEVELS 4 /* simplification by 2^d, d = 1..4 */
+#define RELIEF_MAX_BLOCKS (16 * 16) /* blocks per patch at the largest patch size, 257 */
 
 struct relief_layout {
 	struct relief_patch_geom geom;

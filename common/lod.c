@@ -292,7 +292,7 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 }
 
 /* Block height ranges of one patch: blocks^2 pairs, at most 16 x 16 blocks (P = 257). */
-enum { MAX_BLOCK_RANGES = 2 * 16 * 16 };
+enum { MAX_BLOCK_RANGES = 2 * RELIEF_MAX_BLOCKS };
 
 double relief_surface_height_bound(const struct relief_file *f, double x, double y)
 {

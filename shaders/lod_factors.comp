@@ -53,6 +53,15 @@ bool block_unseen(Instance it, vec2 lo, vec2 range)
 	return outside != 0u;
 }
 
+// Whether block bl of a layer has a valid sample. One without shows nothing: the fragment
+// shader discards every fragment whose nearest sample is no-data, and every point of the
+// block, its curtain quad's too, is nearest to one of the block's own samples.
+bool block_has_data(int layer, ivec2 bl)
+{
+	uint bit, i = block_data_index(layer, bl, pc.blocks, bit);
+	return ((uint(block_err[i]) >> bit) & 1u) != 0u;
+}
+
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
 // v = 1 south) and inner; all zero discards the quad. `seal`: its seal record; `morph`:
 // the morph bytes of the outer edges (x) and of the interior (y), packed as in factors[].
@@ -66,9 +75,15 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		in_s[v] = quad_corner(k, v, down);
 	seal_corner(slot, in_s, seal);
 	int b = int(pc.blocks);
+	bool cull = (pc.mode & MODE_NO_BLOCK_CULL) == 0u, cull_empty = (pc.mode & MODE_KEEP_EMPTY_BLOCKS) == 0u;
 	if (k < pc.blocks * pc.blocks) {
 		ivec2 bl = ivec2(in_s[0] / float(BLOCK_CELLS));
 		vec2 lo = vec2(bl) * float(BLOCK_CELLS);
+		if (cull_empty && !block_has_data(it.layer, bl)) {
+			outer = vec4(0.0);
+			inner = vec2(0.0);
+			return;
+		}
 		vec4 e = block_eps(it, bl.x, bl.y);
 		vec2 range = block_range_at(it.layer, bl);
 		float h = check_height(range);
@@ -98,7 +113,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		// not worked out (only its own control shader reads them; each neighbour computes
 		// a shared edge's factor itself). Everything it draws lies in its box unless a
 		// border takes a coarser patch's heights (a seal): such a block is kept.
-		if ((pc.mode & MODE_NO_BLOCK_CULL) == 0u && (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u &&
+		if (cull && (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u &&
 		    block_unseen(it, lo, range)) {
 			outer = vec4(0.0);
 			inner = vec2(0.0);
@@ -138,7 +153,8 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 	} else {
 		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;
 		int i = int(j % pc.blocks);
-		if (neighbour_id(it, side) >= 0 || (pc.mode & MODE_NO_SKIRTS) != 0u) {
+		if (neighbour_id(it, side) >= 0 || (pc.mode & MODE_NO_SKIRTS) != 0u ||
+		    (cull_empty && !block_has_data(it.layer, border_block(side, i)))) {
 			// Inside the terrain every border is sealed: matched at one level, drawn on
 			// the coarser edge between levels. Only the terrain's edge hangs a curtain.
 			outer = vec4(0.0);

@@ -22,7 +22,7 @@ layout(push_constant) uniform DrawPush {
 	float tau;        // pixels
 	float cam_z;      // metres
 	// per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no
-	// skirts; bit 4: no block culling; bit 5: morphing
+	// skirts; bit 4: no block culling; bit 5: morphing; bit 6: blocks without data drawn
 	uint P, blocks, per_patch, mode;
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
@@ -36,6 +36,7 @@ const uint FINE_DISTANCE = 2u; // factor from the edge's projected length (no er
 const uint MODE_NO_SKIRTS = 8u; // tests: leave every crack open
 const uint MODE_NO_BLOCK_CULL = 16u; // tests: tessellate unseen blocks too (lod_factors.comp)
 const uint MODE_MORPH = 32u; // the view geomorphs level changes (relief_view.morph, terrain_factors.glsl)
+const uint MODE_KEEP_EMPTY_BLOCKS = 64u; // tests: tessellate blocks without a valid sample too
 
 // Camera-relative position of the patch's sample m (x east, y north, z up) at height h
 // metres. Integer finest-grid indices first, one rounding to float after: every patch that

@@ -263,7 +263,7 @@ int bench_decode(int argc, char **argv)
 		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, w * 1e3);
 		printf("  CPU normals (1 thread)       %8.2f ms  (the shader's twin; with the reference: %.2f ms, "
 		       "ratio GPU/CPU at equal outputs %.2f)\n", cn * 1e3, (c + cn) * 1e3, (c + cn) / g);
-		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block errors and ranges)\n",
+		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block records: errors, ranges, which have data)\n",
 		       (unsigned long long)st.bytes_per_layer);
 		printf("  descent: root to finest patch (%u levels) resident after %u updates\n", f->hdr.levels, descent);
 	}

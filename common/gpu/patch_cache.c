@@ -18,6 +18,12 @@
 
 /* ---- creation ---- */
 
+size_t relief_patch_block_floats(uint32_t patch_size)
+{
+	size_t blocks = relief_block_ranges_per_patch(patch_size) / 2;
+	return relief_block_errors_per_patch(patch_size) + relief_block_ranges_per_patch(patch_size) + (blocks + 15) / 16;
+}
+
 static const VkImageUsageFlags POOL_USAGE =
 	VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
 	VK_IMAGE_USAGE_TRANSFER_DST_BIT;
@@ -78,7 +84,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	c->P = f->layout.geom.P;
 	c->E = f->layout.geom.E;
 	c->count = f->hdr.patch_count;
-	c->block_floats = relief_block_errors_per_patch(c->P) + relief_block_ranges_per_patch(c->P);
+	c->block_floats = relief_patch_block_floats(c->P);
 	c->mask_ints = ((size_t)c->P * c->P + 3) / 4;
 	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->mask_ints + c->block_floats;
 

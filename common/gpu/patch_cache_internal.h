@@ -56,7 +56,7 @@ struct relief_patch_cache {
 	struct relief_logger log;
 	struct relief_patch_cache_options o;
 	uint32_t P, E, count;
-	size_t block_floats;             /* floats per layer: block errors, then block height ranges */
+	size_t block_floats;             /* floats per layer: its block record (relief_patch_block_floats()) */
 	size_t slot_ints;                /* labels, values, mask, block errors and ranges */
 	size_t mask_ints;                /* P^2 validity bytes, four per int */
 

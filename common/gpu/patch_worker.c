@@ -105,16 +105,28 @@ static int fill_slot(struct relief_patch_cache *c, struct relief_decoder *dec, i
 	}
 	struct relief_patch_record rec;
 	relief_file_record(c->file, id, &rec);
+	const size_t n_errors = relief_block_errors_per_patch(c->P), n_ranges = relief_block_ranges_per_patch(c->P);
+	const size_t n_blocks = n_ranges / 2;
+	uint8_t has_data[RELIEF_MAX_BLOCKS];
+	memset(has_data, 1, n_blocks);
 	if (rec.flags & RELIEF_PATCH_MASKED) {
 		/* Validity bytes, four per int, read by the normals pass into the normals' w. */
 		uint8_t *mask = (uint8_t *)(values + (size_t)g->E * g->E);
 		memset(mask, 0, c->mask_ints * 4);
 		if ((ret = relief_file_mask(c->file, id, mask)) < 0)
 			return ret;
+		relief_mask_blocks(mask, c->P, has_data);
 	}
 	float *blocks = (float *)(s + c->slot_ints - c->block_floats);
 	relief_file_block_errors(c->file, id, blocks);
-	relief_file_block_ranges(c->file, id, blocks + relief_block_errors_per_patch(c->P));
+	relief_file_block_ranges(c->file, id, blocks + n_errors);
+	float *words = blocks + n_errors + n_ranges;
+	for (size_t w = 0; w < (n_blocks + 15) / 16; w++) {
+		uint32_t bits = 0;
+		for (size_t j = 0; j < 16 && 16 * w + j < n_blocks; j++)
+			bits |= (uint32_t)has_data[16 * w + j] << j;
+		words[w] = (float)bits; /* exact: below 2^24 */
+	}
 	return 0;
 }
 

@@ -56,6 +56,7 @@ struct relief_draw_options {
 	double select_tau;            /* > 0: tau for the coarse selection instead of view->tau */
 	bool no_skirts;               /* tests: draw no skirt, so that any crack stays open */
 	bool no_block_cull;           /* tests, bench lod --unculled: tessellate blocks the camera cannot see too */
+	bool keep_empty_blocks;       /* tests: tessellate blocks without a valid sample too (they show nothing) */
 	bool no_face_cull;            /* tests: draw back faces even when the camera is above the surface */
 	/* Non-NULL: choose the level of detail (selection, tessellation) for this view and draw
 	 * it from `view` (same viewport size): a frozen LOD, for measuring what LOD changes

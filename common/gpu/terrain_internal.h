@@ -86,10 +86,11 @@ struct draw_camera {
 };
 
 /* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts,
- * bit 4 no block culling. */
+ * bit 4 no block culling, bit 5 morphing, bit 6 blocks without data drawn. */
 #define MODE_NO_SKIRTS 8u
 #define MODE_NO_BLOCK_CULL 16u
 #define MODE_MORPH 32u
+#define MODE_KEEP_EMPTY_BLOCKS 64u
 
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,

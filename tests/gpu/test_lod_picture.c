@@ -410,6 +410,84 @@ static void test_nodata_hidden(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Blocks without a valid sample are not tessellated (block_has_data() in lod_factors.comp):
+ * the picture, colour and depth, is bit for bit the one drawn with them, and fewer
+ * triangles are drawn, on Luxembourg (no-data outside the country, and the padding of its
+ * one patch) and on Puget Sound with its water as no-data (a coast), for relief at tau 1
+ * and 4 and chunked LOD, from above, obliquely across the edge of the data and grazing. */
+static void test_blocks_without_data_culled(void **state)
+{
+	const struct relief_pose_case { const char *what; double eye[3], at[3]; } lux[] = {
+		{ "above", { 0, -100, 120000 }, { 0, 0, 0 } },
+		{ "oblique from the south-west, outside", { -45000, -60000, 20000 }, { 0, 0, 300 } },
+		{ "grazing across the border", { 20000, -30000, 900 }, { -10000, 30000, 300 } },
+	}, coast[] = {
+		{ "above", { 82000, 78000, 200000 }, { 82000, 82000, 0 } },
+		{ "oblique over the water", { 40000, 150000, 6000 }, { 60000, 100000, 0 } },
+		{ "grazing", { 50000, 160000, 300 }, { 80000, 120000, 100 } },
+	};
+	const struct { enum relief_fine_lod fine; double tau; } methods[] = {
+		{ RELIEF_FINE_ERRORS, 1.0 }, { RELIEF_FINE_ERRORS, 4.0 }, { RELIEF_FINE_FULL, 1.0 },
+	};
+	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	for (int scene = 0; scene < 2; scene++) {
+		struct bound_scene b;
+		struct relief_dem dem;
+		const struct relief_pose_case *cases = scene == 0 ? lux : coast;
+		if (scene == 0) {
+			bound_open(&b, vk, DEM_LUX);
+		} else { /* the Sound and the sea, heights at or below 0.5 m, as no-data */
+			test_dem_load(DEM_PUGET, &dem);
+			size_t n = (size_t)dem.width * dem.height, water = 0;
+			for (size_t i = 0; i < n; i++)
+				if (dem.heights[i] <= 0.5f) {
+					dem.valid[i] = 0;
+					water++;
+				}
+			print_message("Puget Sound: %zu of %zu samples water (no-data)\n", water, n);
+			assert_true(water > n / 50);
+			bound_open_dem(&b, vk, &dem);
+		}
+		const bool counts = gpu_test_has_statistics(b.s.ctx);
+		uint64_t culled = 0, all = 0;
+		for (size_t c = 0; c < 3; c++)
+			for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
+				struct pose pose = { { cases[c].eye[0], cases[c].eye[1], cases[c].eye[2] },
+				                     { cases[c].at[0], cases[c].at[1], cases[c].at[2] } };
+				struct relief_view v = pose_view(&pose);
+				v.tau = methods[m].tau;
+				struct relief_draw_options o = { .fine = methods[m].fine };
+				struct relief_terrain_stats with, without;
+				render_with(&b.s, &v, &o, b.lod, &with);
+				memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+				o.keep_empty_blocks = true;
+				render_with(&b.s, &v, &o, b.ref, &without);
+				uint32_t terrain = 0;
+				for (size_t k = 0; k < (size_t)BW * BH; k++)
+					terrain += b.ref[k] > 0.0f;
+				print_message("%s, %s, %s tau %g: %u terrain pixels, %llu triangles, %llu with empty blocks\n",
+				              scene ? "coast" : "Luxembourg", cases[c].what,
+				              methods[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v.tau, terrain,
+				              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
+				assert_true(terrain > 0);
+				assert_memory_equal(b.lod, b.ref, sizeof(float) * BW * BH);
+				assert_memory_equal(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
+				if (counts)
+					assert_true(with.triangles <= without.triangles);
+				culled += with.triangles;
+				all += without.triangles;
+			}
+		print_message("%s: %llu triangles, %llu with empty blocks\n", scene ? "coast" : "Luxembourg",
+		              (unsigned long long)culled, (unsigned long long)all);
+		if (counts)
+			assert_true(culled < all);
+		bound_close(&b);
+		if (scene == 1)
+			relief_dem_finish(&dem);
+	}
+	free(colour);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -420,6 +498,7 @@ int main(void)
 		cmocka_unit_test(test_face_cull_keeps_picture),
 		cmocka_unit_test(test_old_version_renders),
 		cmocka_unit_test(test_nodata_hidden),
+		cmocka_unit_test(test_blocks_without_data_culled),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }

@@ -89,11 +89,13 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	const size_t EE = (size_t)E * E, ne = relief_block_errors_per_patch(P), nb = ne + relief_block_ranges_per_patch(P);
 	int32_t *gpu_h = malloc(sizeof(int32_t) * EE);
 	int8_t *gpu_n = malloc((size_t)P * P * 4);
-	float *gpu_e = malloc(sizeof(float) * nb), *cpu_e = malloc(sizeof(float) * nb);
+	const size_t nrec = relief_patch_block_floats(P); /* errors, ranges, then which blocks have data */
+	float *gpu_e = malloc(sizeof(float) * nrec), *cpu_e = malloc(sizeof(float) * nb);
 	uint32_t checked = 0;
 	double worst_normal = 0;
 	int twin_steps = 0;      /* largest difference between the CPU twin and the GPU, snorm8 steps */
 	uint64_t twin_same = 0; /* components where they agree */
+	uint32_t blocks_with_data = 0, blocks_seen = 0; /* over every decoded patch */
 	for (uint32_t l = 0; l < lay->levels; l++) {
 		int32_t *blocks;
 		assert_int_equal(relief_decode_level_blocks(f, l, 1, &blocks), 0);
@@ -135,6 +137,25 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 			assert_int_equal(relief_file_mask(f, id, mask), 0);
 			for (size_t k = 0; k < (size_t)P * P; k++)
 				assert_int_equal(gpu_n[k * 4 + 3], mask[k] ? 127 : -127); /* validity in w */
+			/* A block's bit is set where any of its (16 + 1)^2 samples is valid: each valid
+			 * sample sets the bits of the blocks it belongs to (up to four on block borders). */
+			uint32_t want[RELIEF_MAX_BLOCKS / 16] = { 0 };
+			const uint32_t nbl = lay->blocks;
+			for (uint32_t y = 0; y < P; y++)
+				for (uint32_t x = 0; x < P; x++) {
+					if (!mask[(size_t)y * P + x])
+						continue;
+					for (uint32_t by = y / 16 - (y % 16 == 0 && y > 0); by <= y / 16 && by < nbl; by++)
+						for (uint32_t bx = x / 16 - (x % 16 == 0 && x > 0); bx <= x / 16 && bx < nbl; bx++)
+							want[(by * nbl + bx) / 16] |= 1u << ((by * nbl + bx) % 16);
+				}
+			for (size_t w = 0; w < nrec - nb; w++)
+				if ((float)want[w] != gpu_e[nb + w])
+					fail_msg("%s patch %u: blocks with data %g in word %zu, expected %u", test_dem_name(d), id,
+					         gpu_e[nb + w], w, want[w]);
+			for (size_t w = 0; w < nrec - nb; w++)
+				blocks_with_data += (uint32_t)__builtin_popcount(want[w]);
+			blocks_seen += nbl * nbl;
 			/* The CPU twin (common/normals.c) within one snorm8 step of the shader. */
 			uint32_t *twin = malloc(sizeof(uint32_t) * P * P);
 			relief_normals_pack(f, l, cpu, mask, twin);
@@ -167,6 +188,11 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	print_message("%s: the CPU normals twin equals the GPU in %.4f %% of components, at most %d snorm8 step(s) off\n",
 	              test_dem_name(d), 100.0 * (double)twin_same / ((double)checked * P * P * 4), twin_steps);
 	assert_true(twin_steps <= 1);
+	print_message("%s: %u of %u blocks have a valid sample, their bits in the layers as the masks say\n",
+	              test_dem_name(d), blocks_with_data, blocks_seen);
+	assert_true(blocks_with_data > 0);
+	if (d != DEM_PUGET) /* no-data outside Luxembourg, padding beside Mont Blanc: some blocks have none */
+		assert_true(blocks_with_data < blocks_seen);
 	struct relief_patch_cache_stats s;
 	relief_patch_cache_stats(c, &s);
 	assert_int_equal(s.decoded, checked);

@@ -373,6 +373,33 @@ static void test_version2_still_read(void **state)
 	free(v3img);
 }
 
+/* Which blocks of a patch have a valid sample: a sample on a block corner belongs to the
+ * four blocks around it, one on a block edge to two, one inside to its block alone. */
+static void test_mask_blocks(void **state)
+{
+	enum { P = 65, B = 4 }; /* 4 x 4 blocks of 16 cells */
+	uint8_t mask[P * P], has[B * B];
+	memset(mask, 0, sizeof(mask));
+	relief_mask_blocks(mask, P, has);
+	for (int i = 0; i < B * B; i++)
+		assert_int_equal(has[i], 0);
+	mask[32 * P + 16] = 1; /* the corner of blocks (0,1), (1,1), (0,2), (1,2) */
+	mask[5 * P + 48] = 1;  /* on the edge between blocks (2,0) and (3,0) */
+	mask[60 * P + 61] = 1; /* inside block (3,3) */
+	relief_mask_blocks(mask, P, has);
+	const uint8_t want[B * B] = {
+		0, 0, 1, 1,
+		1, 1, 0, 0,
+		1, 1, 0, 0,
+		0, 0, 0, 1,
+	};
+	assert_memory_equal(has, want, sizeof(want));
+	memset(mask, 1, sizeof(mask));
+	relief_mask_blocks(mask, P, has);
+	for (int i = 0; i < B * B; i++)
+		assert_int_equal(has[i], 1);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -384,6 +411,7 @@ int main(void)
 		cmocka_unit_test(test_inverted_block_range),
 		cmocka_unit_test(test_open_from_disk),
 		cmocka_unit_test(test_version2_still_read),
+		cmocka_unit_test(test_mask_blocks),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);
 }
