@@ -88,6 +88,35 @@ static void test_shading_keeps_detail(void **state)
 	bound_close(&b);
 }
 
+/* Renders v with o, then again with the culling that *keep turns off (set here), and checks
+ * that the two pictures, colour and depth, are the same bit for bit with terrain in them,
+ * and that culling drew no more triangles; adds both counts to *culled and *all. */
+static void check_cull_keeps_picture(struct bound_scene *b, struct relief_view *v, struct relief_draw_options *o,
+                                     bool *keep, const char *what, uint64_t *culled, uint64_t *all)
+{
+	uint8_t *colour = malloc((size_t)BW * BH * 4);
+	struct relief_terrain_stats with, without;
+	*keep = false;
+	render_with(&b->s, v, o, b->lod, &with);
+	memcpy(colour, b->s.target.color_readback.map, (size_t)BW * BH * 4);
+	*keep = true;
+	render_with(&b->s, v, o, b->ref, &without);
+	uint32_t terrain = 0;
+	for (size_t k = 0; k < (size_t)BW * BH; k++)
+		terrain += b->ref[k] > 0.0f;
+	print_message("%s, %s tau %g: %u terrain pixels, %llu triangles culled, %llu not\n", what,
+	              o->fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v->tau, terrain,
+	              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
+	assert_true(terrain > 0);
+	assert_memory_equal(b->lod, b->ref, sizeof(float) * BW * BH);
+	assert_memory_equal(colour, b->s.target.color_readback.map, (size_t)BW * BH * 4);
+	if (gpu_test_has_statistics(b->s.ctx))
+		assert_true(with.triangles <= without.triangles);
+	*culled += with.triangles;
+	*all += without.triangles;
+	free(colour);
+}
+
 /* Blocks the draw camera cannot see are not tessellated (block_unseen() in
  * lod_factors.comp): the picture, colour and depth, is bit for bit the one drawn with every
  * block tessellated, from views that cut through patches every way (grazing, steep, banked,
@@ -110,7 +139,6 @@ static void test_block_cull_keeps_picture(void **state)
 	const struct { enum relief_fine_lod fine; double tau; } methods[] = {
 		{ RELIEF_FINE_ERRORS, 1.0 }, { RELIEF_FINE_ERRORS, 4.0 }, { RELIEF_FINE_FULL, 1.0 },
 	};
-	uint8_t *colour = malloc((size_t)BW * BH * 4);
 	uint64_t culled = 0, all = 0;
 	const bool counts = gpu_test_has_statistics(b.s.ctx);
 	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++)
@@ -124,30 +152,14 @@ static void test_block_cull_keeps_picture(void **state)
 				lod.target.x += 3000;
 			}
 			struct relief_draw_options o = { .fine = methods[m].fine, .lod_view = cases[c].frozen ? &lod : NULL };
-			struct relief_terrain_stats with, without;
-			render_with(&b.s, &v, &o, b.lod, &with);
-			memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
-			o.no_block_cull = true;
-			render_with(&b.s, &v, &o, b.ref, &without);
-			uint32_t terrain = 0;
-			for (size_t k = 0; k < (size_t)BW * BH; k++)
-				terrain += b.ref[k] > 0.0f;
-			print_message("view %zu, %s tau %g: %u terrain pixels, %llu triangles culled, %llu not\n", c,
-			              methods[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v.tau, terrain,
-			              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
-			assert_true(terrain > 0);
-			assert_memory_equal(b.lod, b.ref, sizeof(float) * BW * BH);
-			assert_memory_equal(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
-			if (counts)
-				assert_true(with.triangles <= without.triangles);
-			culled += with.triangles;
-			all += without.triangles;
+			char what[32];
+			snprintf(what, sizeof(what), "view %zu", c);
+			check_cull_keeps_picture(&b, &v, &o, &o.no_block_cull, what, &culled, &all);
 		}
 	print_message("all views: %llu triangles with culling, %llu without\n", (unsigned long long)culled,
 	              (unsigned long long)all);
 	if (counts)
 		assert_true(culled < all);
-	free(colour);
 	bound_close(&b);
 }
 
@@ -417,23 +429,22 @@ static void test_nodata_hidden(void **state)
  * and 4 and chunked LOD, from above, obliquely across the edge of the data and grazing. */
 static void test_blocks_without_data_culled(void **state)
 {
-	const struct relief_pose_case { const char *what; double eye[3], at[3]; } lux[] = {
-		{ "above", { 0, -100, 120000 }, { 0, 0, 0 } },
-		{ "oblique from the south-west, outside", { -45000, -60000, 20000 }, { 0, 0, 300 } },
-		{ "grazing across the border", { 20000, -30000, 900 }, { -10000, 30000, 300 } },
+	const struct named_pose { const char *what; struct pose pose; } lux[] = {
+		{ "above", { { 0, -100, 120000 }, { 0, 0, 0 } } },
+		{ "oblique from the south-west, outside", { { -45000, -60000, 20000 }, { 0, 0, 300 } } },
+		{ "grazing across the border", { { 20000, -30000, 900 }, { -10000, 30000, 300 } } },
 	}, coast[] = {
-		{ "above", { 82000, 78000, 200000 }, { 82000, 82000, 0 } },
-		{ "oblique over the water", { 40000, 150000, 6000 }, { 60000, 100000, 0 } },
-		{ "grazing", { 50000, 160000, 300 }, { 80000, 120000, 100 } },
+		{ "above", { { 82000, 78000, 200000 }, { 82000, 82000, 0 } } },
+		{ "oblique over the water", { { 40000, 150000, 6000 }, { 60000, 100000, 0 } } },
+		{ "grazing", { { 50000, 160000, 300 }, { 80000, 120000, 100 } } },
 	};
 	const struct { enum relief_fine_lod fine; double tau; } methods[] = {
 		{ RELIEF_FINE_ERRORS, 1.0 }, { RELIEF_FINE_ERRORS, 4.0 }, { RELIEF_FINE_FULL, 1.0 },
 	};
-	uint8_t *colour = malloc((size_t)BW * BH * 4);
 	for (int scene = 0; scene < 2; scene++) {
 		struct bound_scene b;
 		struct relief_dem dem;
-		const struct relief_pose_case *cases = scene == 0 ? lux : coast;
+		const struct named_pose *cases = scene == 0 ? lux : coast;
 		if (scene == 0) {
 			bound_open(&b, vk, DEM_LUX);
 		} else { /* the Sound and the sea, heights at or below 0.5 m, as no-data */
@@ -452,30 +463,12 @@ static void test_blocks_without_data_culled(void **state)
 		uint64_t culled = 0, all = 0;
 		for (size_t c = 0; c < 3; c++)
 			for (size_t m = 0; m < sizeof(methods) / sizeof(methods[0]); m++) {
-				struct pose pose = { { cases[c].eye[0], cases[c].eye[1], cases[c].eye[2] },
-				                     { cases[c].at[0], cases[c].at[1], cases[c].at[2] } };
-				struct relief_view v = pose_view(&pose);
+				struct relief_view v = pose_view(&cases[c].pose);
 				v.tau = methods[m].tau;
 				struct relief_draw_options o = { .fine = methods[m].fine };
-				struct relief_terrain_stats with, without;
-				render_with(&b.s, &v, &o, b.lod, &with);
-				memcpy(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
-				o.keep_empty_blocks = true;
-				render_with(&b.s, &v, &o, b.ref, &without);
-				uint32_t terrain = 0;
-				for (size_t k = 0; k < (size_t)BW * BH; k++)
-					terrain += b.ref[k] > 0.0f;
-				print_message("%s, %s, %s tau %g: %u terrain pixels, %llu triangles, %llu with empty blocks\n",
-				              scene ? "coast" : "Luxembourg", cases[c].what,
-				              methods[m].fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v.tau, terrain,
-				              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
-				assert_true(terrain > 0);
-				assert_memory_equal(b.lod, b.ref, sizeof(float) * BW * BH);
-				assert_memory_equal(colour, b.s.target.color_readback.map, (size_t)BW * BH * 4);
-				if (counts)
-					assert_true(with.triangles <= without.triangles);
-				culled += with.triangles;
-				all += without.triangles;
+				char what[80];
+				snprintf(what, sizeof(what), "%s, %s", scene ? "coast" : "Luxembourg", cases[c].what);
+				check_cull_keeps_picture(&b, &v, &o, &o.keep_empty_blocks, what, &culled, &all);
 			}
 		print_message("%s: %llu triangles, %llu with empty blocks\n", scene ? "coast" : "Luxembourg",
 		              (unsigned long long)culled, (unsigned long long)all);
@@ -485,7 +478,6 @@ static void test_blocks_without_data_culled(void **state)
 		if (scene == 1)
 			relief_dem_finish(&dem);
 	}
-	free(colour);
 }
 
 int main(void)
