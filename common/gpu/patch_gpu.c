@@ -242,10 +242,9 @@ void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)
 	if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 3, sizeof(t), t, sizeof(uint64_t),
 	                          VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
 		return;
-	/* In order on the queue: the differences are not negative (but across the counter's wrap) */
-	c->stats.gpu_ns += (uint64_t)relief_vk_ticks_ns(c->vk, t[0], t[2]);
-	c->stats.gpu_decode_ns += (uint64_t)relief_vk_ticks_ns(c->vk, t[0], t[1]);
-	c->stats.gpu_normals_ns += (uint64_t)relief_vk_ticks_ns(c->vk, t[1], t[2]);
+	c->stats.gpu_ns += relief_vk_ticks_elapsed_ns(c->vk, t[0], t[2]);
+	c->stats.gpu_decode_ns += relief_vk_ticks_elapsed_ns(c->vk, t[0], t[1]);
+	c->stats.gpu_normals_ns += relief_vk_ticks_elapsed_ns(c->vk, t[1], t[2]);
 }
 
 int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)

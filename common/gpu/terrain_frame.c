@@ -243,9 +243,9 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	for (uint32_t i = 0; i < 4 && v->timed; i++)
 		v->timed = relief_vk_timer_ticks(vk, &v->timer, i, &stamp[i]) == 0;
 	if (v->timed) {
-		s.select_ns = (uint64_t)relief_vk_ticks_ns(vk, stamp[0], stamp[1]);
-		s.lod_ns = (uint64_t)relief_vk_ticks_ns(vk, stamp[0], stamp[2]);
-		s.gpu_ns = (uint64_t)relief_vk_ticks_ns(vk, stamp[0], stamp[3]);
+		s.select_ns = relief_vk_ticks_elapsed_ns(vk, stamp[0], stamp[1]);
+		s.lod_ns = relief_vk_ticks_elapsed_ns(vk, stamp[0], stamp[2]);
+		s.gpu_ns = relief_vk_ticks_elapsed_ns(vk, stamp[0], stamp[3]);
 		v->start_ticks = stamp[0];
 		v->end_ticks = stamp[3];
 	}

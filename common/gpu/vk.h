@@ -232,3 +232,5 @@ int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t
  * range apart). */
 int relief_vk_timer_ticks(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t slot, uint64_t *ticks);
 int64_t relief_vk_ticks_ns(const struct relief_vk *vk, uint64_t from, uint64_t to);
+/* The same for stamps in queue order: not negative (0 if they are not in order). */
+uint64_t relief_vk_ticks_elapsed_ns(const struct relief_vk *vk, uint64_t from, uint64_t to);

@@ -1,6 +1,8 @@
 /* One-shot command submission and GPU timestamps. */
 #include <errno.h>
 #include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "pipeline.h"
@@ -112,15 +114,20 @@ int64_t relief_vk_ticks_ns(const struct relief_vk *vk, uint64_t from, uint64_t t
 	uint32_t bits = vk->timestamp_valid_bits < 64 ? vk->timestamp_valid_bits : 64;
 	if (bits == 0)
 		return 0;
-	uint64_t d = to - from;
-	int64_t signed_ticks;
-	if (bits < 64) {
-		d &= (1ull << bits) - 1;
-		signed_ticks = d >= 1ull << (bits - 1) ? (int64_t)d - (int64_t)(1ull << bits) : (int64_t)d;
-	} else {
-		signed_ticks = (int64_t)d;
-	}
-	return (int64_t)llround((double)signed_ticks * vk->props.limits.timestampPeriod);
+	const uint64_t mask = bits < 64 ? (1ull << bits) - 1 : UINT64_MAX;
+	uint64_t d = (to - from) & mask;
+	bool negative = (d >> (bits - 1)) & 1;
+	uint64_t magnitude = negative ? (0 - d) & mask : d; /* at most 2^(bits - 1) */
+	double ns = (double)magnitude * vk->props.limits.timestampPeriod;
+	if (ns >= 9.2e18)
+		return negative ? -INT64_MAX : INT64_MAX;
+	return negative ? -(int64_t)llround(ns) : (int64_t)llround(ns);
+}
+
+uint64_t relief_vk_ticks_elapsed_ns(const struct relief_vk *vk, uint64_t from, uint64_t to)
+{
+	int64_t d = relief_vk_ticks_ns(vk, from, to);
+	return d > 0 ? (uint64_t)d : 0;
 }
 
 int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t from, uint32_t to,
@@ -132,7 +139,6 @@ int relief_vk_timer_ns(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t
 		ret = relief_vk_timer_ticks(vk, t, to, &b);
 	if (ret < 0)
 		return ret;
-	int64_t d = relief_vk_ticks_ns(vk, a, b);
-	*ns = d > 0 ? (uint64_t)d : 0;
+	*ns = relief_vk_ticks_elapsed_ns(vk, a, b);
 	return 0;
 }

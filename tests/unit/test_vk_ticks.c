@@ -31,6 +31,13 @@ static void test_wrap(void **state)
 	vk = clock_of(64, 1.0f);
 	assert_int_equal(relief_vk_ticks_ns(&vk, UINT64_MAX - 1, 3), 5);
 	assert_int_equal(relief_vk_ticks_ns(&vk, 3, UINT64_MAX - 1), -5);
+	/* Half the range apart: the far side of the wrap, with no overflow at 63 or 64 bits. */
+	vk = clock_of(63, 1.0f);
+	assert_true(relief_vk_ticks_ns(&vk, 0, 1ull << 62) == -(int64_t)(1ull << 62));
+	assert_true(relief_vk_ticks_ns(&vk, 0, 1ull << 61) == (int64_t)(1ull << 61));
+	vk = clock_of(64, 1.0f);
+	assert_true(relief_vk_ticks_ns(&vk, 0, 1ull << 63) < -(int64_t)(1ull << 62));
+	assert_int_equal(relief_vk_ticks_elapsed_ns(&vk, 10, 4), 0); /* out of order: none */
 }
 
 static void test_period(void **state)
