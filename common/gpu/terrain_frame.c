@@ -105,16 +105,21 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	};
 
 	VkCommandBuffer cmd;
-	int ret = relief_vk_cmd_begin(vk, &cmd);
+	int ret = relief_vk_cmd_record(vk, &cmd);
 	if (ret < 0)
 		return ret;
 	relief_vk_timer_reset(&v->timer, cmd);
 	relief_vk_timer_write(&v->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
 	if (v->stats_pool)
 		vkCmdResetQueryPool(cmd, v->stats_pool, 0, 1);
-	/* The work submitted before (this view's last frame, other views' frames, decodes) is
-	 * done with what this frame writes, and its writes are visible. */
-	barrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+	/* What this frame's transfers and compute write is written before it only by compute
+	 * and transfers: other views' frames (the shared use tables and distances) and this
+	 * view's last one, which the host waited for; decodes end with a barrier of their own
+	 * to every stage, and nothing drawn reads what the frame's compute writes but the
+	 * view's own last frame. So other views' drawing may still run (on a GPU) while this
+	 * frame selects. Checked inside one command buffer by test_frames_captured. */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+	        VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	vkCmdUpdateBuffer(cmd, v->camera.buffer, 0, sizeof(camera), &camera);
@@ -196,6 +201,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
 	        VK_ACCESS_HOST_READ_BIT);
 	relief_vk_timer_write(&v->timer, cmd, 3, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT);
+	v->captured = cmd == vk->capture;
 	if ((ret = relief_vk_cmd_submit(vk, cmd, v->fence)) < 0)
 		return ret;
 	v->pending = cmd;
@@ -215,7 +221,8 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	int ret = relief_vk_check(vk, vkWaitForFences(vk->device, 1, &v->fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 	if (ret == 0)
 		ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &v->fence), "vkResetFences");
-	vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &v->pending);
+	if (!v->captured)
+		relief_vk_cmd_free(vk, v->pending);
 	v->pending = VK_NULL_HANDLE;
 	v->timed = false;
 	relief_patch_cache_release(t->cache);

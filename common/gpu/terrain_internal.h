@@ -149,6 +149,7 @@ struct relief_terrain_view {
 	/* The frame in flight (relief_terrain_draw_submit() to relief_terrain_view_wait()):
 	 * its command buffer (VK_NULL_HANDLE: none), fence, and how back faces were culled */
 	VkCommandBuffer pending;
+	bool captured; /* pending is a capture's (relief_vk_capture_begin()), not this view's to free */
 	VkFence fence;
 	bool gpu_cull, cpu_cull;
 };

@@ -37,6 +37,8 @@ struct relief_vk_options {
 	const struct relief_logger *log;
 };
 
+#define RELIEF_VK_CAPTURE_FENCES 32
+
 struct relief_vk {
 	VkInstance instance;
 	VkDebugUtilsMessengerEXT messenger;
@@ -70,6 +72,11 @@ struct relief_vk {
 	 * device may allow as few as 4,096 (maxMemoryAllocationCount), which a daemon drawing
 	 * many clients' views must stay well under. */
 	atomic_uint allocations;
+	/* Tests (relief_vk_capture_begin()): the command buffer frames and patch cache batches
+	 * are recorded into, and the fences its submission is to signal, in order. */
+	VkCommandBuffer capture;
+	VkFence capture_fences[RELIEF_VK_CAPTURE_FENCES];
+	uint32_t capture_n_fences;
 };
 
 int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **out);
@@ -203,10 +210,24 @@ int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t s
 
 /* Allocates and begins a one-time primary command buffer. */
 int relief_vk_cmd_begin(struct relief_vk *vk, VkCommandBuffer *cmd);
+/* relief_vk_cmd_begin(), or the capture's command buffer while there is one (below): for
+ * the work that is submitted and waited for later (frames, patch cache batches). */
+int relief_vk_cmd_record(struct relief_vk *vk, VkCommandBuffer *cmd);
 /* Ends `cmd` and submits it, `fence` (may be VK_NULL_HANDLE) signalled when it completes;
- * the caller frees it (vkFreeCommandBuffers() on cmd_pool) once it has. On failure `cmd`
- * is freed here. */
+ * the caller frees it (relief_vk_cmd_free()) once it has. On failure `cmd` is freed here.
+ * The capture's command buffer is not submitted: its fence is kept (-ENOSPC beyond
+ * RELIEF_VK_CAPTURE_FENCES). */
 int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence);
+/* Frees a command buffer of relief_vk_cmd_begin() or _record(); not the capture's. */
+void relief_vk_cmd_free(struct relief_vk *vk, VkCommandBuffer cmd);
+/* Tests: between relief_vk_capture_begin() and relief_vk_capture_end(), frames and patch
+ * cache batches are recorded into one command buffer instead of a submission each, so that
+ * the validation layer's synchronisation checks, which do not look across submissions,
+ * check the barriers between them. _end() submits it, then signals the kept fences in
+ * order, and waits for the queue. One-shot work that waits (relief_vk_cmd_submit_wait())
+ * is not captured: do none in between. */
+int relief_vk_capture_begin(struct relief_vk *vk);
+int relief_vk_capture_end(struct relief_vk *vk);
 /* Ends, submits, waits for completion and frees `cmd` (also on failure). */
 int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd);
 

@@ -29,8 +29,30 @@ int relief_vk_cmd_begin(struct relief_vk *vk, VkCommandBuffer *cmd)
 	return ret;
 }
 
+int relief_vk_cmd_record(struct relief_vk *vk, VkCommandBuffer *cmd)
+{
+	if (vk->capture) {
+		*cmd = vk->capture;
+		return 0;
+	}
+	return relief_vk_cmd_begin(vk, cmd);
+}
+
+void relief_vk_cmd_free(struct relief_vk *vk, VkCommandBuffer cmd)
+{
+	if (cmd && cmd != vk->capture)
+		vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+}
+
 int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence)
 {
+	if (cmd == vk->capture) {
+		if (fence && vk->capture_n_fences == RELIEF_VK_CAPTURE_FENCES)
+			return -ENOSPC;
+		if (fence)
+			vk->capture_fences[vk->capture_n_fences++] = fence;
+		return 0;
+	}
 	int ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
 	VkSubmitInfo submit = {
 		.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
@@ -59,6 +81,36 @@ int relief_vk_cmd_submit_wait(struct relief_vk *vk, VkCommandBuffer cmd)
 	}
 	vkDestroyFence(vk->device, fence, NULL);
 	return ret;
+}
+
+int relief_vk_capture_begin(struct relief_vk *vk)
+{
+	if (vk->capture)
+		return -EBUSY;
+	int ret = relief_vk_cmd_begin(vk, &vk->capture);
+	if (ret < 0)
+		vk->capture = VK_NULL_HANDLE;
+	vk->capture_n_fences = 0;
+	return ret;
+}
+
+int relief_vk_capture_end(struct relief_vk *vk)
+{
+	VkCommandBuffer cmd = vk->capture;
+	if (!cmd)
+		return -EINVAL;
+	vk->capture = VK_NULL_HANDLE;
+	int ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+	VkSubmitInfo submit = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd };
+	if (ret == 0)
+		ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &submit, VK_NULL_HANDLE), "vkQueueSubmit");
+	/* An empty submission signals its fence once everything submitted before is done. */
+	for (uint32_t i = 0; i < vk->capture_n_fences && ret == 0; i++)
+		ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 0, NULL, vk->capture_fences[i]), "vkQueueSubmit");
+	int wait = relief_vk_check(vk, vkQueueWaitIdle(vk->queue), "vkQueueWaitIdle");
+	vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+	vk->capture_n_fences = 0;
+	return ret < 0 ? ret : wait;
 }
 
 int relief_vk_timer_init(struct relief_vk *vk, struct relief_vk_timer *t, uint32_t count)

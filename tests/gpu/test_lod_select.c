@@ -468,6 +468,65 @@ static void test_views_in_flight(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Several views' frames and the patch cache's decode batches recorded into one command
+ * buffer (relief_vk_capture_begin()): the validation layer's synchronisation checks, which
+ * do not look across submissions, then check the barriers between them, from a cold cache
+ * (decodes between frames, every view asking) to a warm one. Negative control, run by
+ * hand: without the barrier that starts every frame the layer reports hazards. */
+static void test_frames_captured(void **state)
+{
+	const struct pose poses[] = {
+		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
+		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },
+		{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },
+	};
+	enum { N = 3, ROUNDS = 6 };
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	struct relief_view views[N];
+	struct relief_vk_target targets[N];
+	struct relief_terrain_view *tv[N];
+	for (int i = 0; i < N; i++) {
+		views[i] = pose_view(&poses[i]);
+		views[i].tau = 1.0 + i;
+		assert_int_equal(relief_vk_target_init(vk, &targets[i], BW, BH), 0);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &tv[i]), 0);
+	}
+	struct relief_patch_cache_stats before, after;
+	relief_patch_cache_stats(s.cache, &before);
+	uint32_t requests = 0;
+	for (uint64_t frame = 1; frame <= ROUNDS; frame++) {
+		assert_int_equal(relief_vk_capture_begin(vk), 0);
+		assert_int_equal(relief_vk_capture_begin(vk), -EBUSY);
+		assert_true(relief_patch_cache_update(s.cache, frame) >= 0);
+		for (int i = 0; i < N; i++)
+			assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[i], &views[i], &targets[i], frame, NULL), 0);
+		assert_int_equal(relief_vk_capture_end(vk), 0);
+		requests = 0;
+		for (int i = 0; i < N; i++) {
+			struct relief_terrain_stats st;
+			assert_int_equal(relief_terrain_view_wait(s.terrain, tv[i], &st), 0);
+			assert_true(st.patches > 0 || frame < ROUNDS); /* the first frames may wait for the root */
+			requests += st.requests;
+		}
+		/* The worker's share between rounds, outside the capture (it is the CPU's). */
+		struct timespec pause = { 0, 50 * 1000 * 1000 };
+		nanosleep(&pause, NULL);
+	}
+	assert_int_equal(relief_vk_capture_end(vk), -EINVAL);
+	relief_patch_cache_stats(s.cache, &after);
+	print_message("%d captured rounds of %d views: %llu patches decoded in %llu captured batches, %u requests left\n",
+	              ROUNDS, N, (unsigned long long)(after.decoded - before.decoded),
+	              (unsigned long long)(after.batches - before.batches), requests);
+	assert_true(after.batches > before.batches); /* decodes were captured between frames */
+	for (int i = 0; i < N; i++) {
+		relief_terrain_view_destroy(tv[i]);
+		relief_vk_target_finish(vk, &targets[i]);
+	}
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* The number of finest-level patches view tv drew in its last frame. */
 static uint32_t finest_drawn(const struct scene *s, struct relief_terrain_view *tv)
 {
@@ -730,6 +789,7 @@ int main(void)
 		cmocka_unit_test(test_tight_cache_settles),
 		cmocka_unit_test(test_frozen_lod),
 		cmocka_unit_test(test_views_in_flight),
+		cmocka_unit_test(test_frames_captured),
 		cmocka_unit_test(test_view_allocations),
 		cmocka_unit_test(test_device_limits_named),
 	};
