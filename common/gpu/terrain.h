@@ -76,7 +76,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
 /* The same in two halves, so that several views' frames are in flight at once (a GPU then
  * renders one while the CPU records the next): submit records and submits the frame
  * (-EBUSY while this view has one in flight); wait waits for it, fills *st (may be NULL)
- * and passes the requests on (-EINVAL when nothing was submitted). In between, the view
+ * and passes the requests on (-EINVAL when nothing was submitted, -EDEADLK while the frame
+ * sits in a capture not yet submitted, relief_vk_capture_begin()). In between, the view
  * and `target` belong to the device: give each view in flight a target of its own, do not
  * read the target, and do not update the cache (relief_patch_cache_update() refuses, see
  * relief_patch_cache_hold()). Frames run in submission order. */

@@ -217,6 +217,8 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	if (!v->pending)
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
+	if (v->captured && v->pending == vk->capture)
+		return -EDEADLK; /* recorded into a capture not yet submitted (relief_vk_capture_end()) */
 	const struct relief_file *f = t->file;
 	int ret = relief_vk_check(vk, vkWaitForFences(vk->device, 1, &v->fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 	if (ret == 0)

@@ -501,6 +501,7 @@ static void test_frames_captured(void **state)
 		assert_true(relief_patch_cache_update(s.cache, frame) >= 0);
 		for (int i = 0; i < N; i++)
 			assert_int_equal(relief_terrain_draw_submit(s.terrain, tv[i], &views[i], &targets[i], frame, NULL), 0);
+		assert_int_equal(relief_terrain_view_wait(s.terrain, tv[0], NULL), -EDEADLK); /* not submitted yet */
 		assert_int_equal(relief_vk_capture_end(vk), 0);
 		requests = 0;
 		for (int i = 0; i < N; i++) {
