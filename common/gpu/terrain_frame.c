@@ -117,7 +117,9 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	 * view's last one, which the host waited for; decodes end with a barrier of their own
 	 * to every stage, and nothing drawn reads what the frame's compute writes but the
 	 * view's own last frame. So other views' drawing may still run (on a GPU) while this
-	 * frame selects. Checked inside one command buffer by test_frames_captured. */
+	 * frame selects. test_frames_captured (frames and decodes in one command buffer) sees
+	 * no hazard with it, nor without it: each frame's own compute barriers also order the
+	 * compute before them. */
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
 	        VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
