@@ -2,6 +2,7 @@
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
@@ -42,18 +43,37 @@ int cmd_info(int argc, char **argv)
 	const struct relief_header *h = &f->hdr;
 	double x0 = h->origin_x, x1 = h->origin_x + (h->width - 1) * h->spacing_x;
 	double y1 = h->origin_y, y0 = h->origin_y - (h->height - 1) * h->spacing_y;
-	uint32_t nonempty[RELIEF_MAX_LEVELS] = { 0 };
+	uint32_t nonempty[RELIEF_MAX_LEVELS] = { 0 }, bad_masks = 0;
 	uint64_t bytes[RELIEF_MAX_LEVELS] = { 0 };
+	/* Blocks with a valid sample: the ones a renderer tessellates (relief_mask_blocks()). */
+	uint64_t data_blocks[RELIEF_MAX_LEVELS] = { 0 };
+	const uint32_t n_blocks = f->layout.blocks * f->layout.blocks;
+	uint8_t *mask = malloc((size_t)h->patch_size * h->patch_size), has_data[RELIEF_MAX_BLOCKS];
+	if (!mask) {
+		fprintf(stderr, "relief info: out of memory\n");
+		relief_file_close(f);
+		return 1;
+	}
 	for (uint32_t id = 0; id < h->patch_count; id++) {
 		uint32_t l, px, py;
 		relief_patch_coords(&f->layout, id, &l, &px, &py);
 		struct relief_patch_record r;
 		relief_file_record(f, id, &r);
-		if (!(r.flags & RELIEF_PATCH_EMPTY)) {
-			nonempty[l]++;
-			bytes[l] += r.size;
+		if (r.flags & RELIEF_PATCH_EMPTY)
+			continue;
+		nonempty[l]++;
+		bytes[l] += r.size;
+		if (!(r.flags & RELIEF_PATCH_MASKED)) {
+			data_blocks[l] += n_blocks;
+		} else if (relief_file_mask(f, id, mask) < 0) {
+			bad_masks++;
+		} else {
+			relief_mask_blocks(mask, h->patch_size, has_data);
+			for (uint32_t b = 0; b < n_blocks; b++)
+				data_blocks[l] += has_data[b];
 		}
 	}
+	free(mask);
 	double bps = 8.0 * h->file_size / h->valid_samples;
 	if (json) {
 		printf("{\"file\":");
@@ -67,10 +87,12 @@ int cmd_info(int argc, char **argv)
 		       h->height_max, (unsigned long long)h->valid_samples, bps,
 		       h->source_units == RELIEF_UNITS_FEET ? "ft" : "m");
 		cli_json_string(stdout, f->crs);
-		printf(",\"levels\":[");
+		printf(",\"corrupt_masks\":%u,\"levels\":[", bad_masks);
 		for (uint32_t l = 0; l < h->levels; l++)
-			printf("%s{\"level\":%u,\"delta_m\":%.17g,\"patches\":%u,\"nonempty\":%u,\"bytes\":%llu}",
-			       l ? "," : "", l, h->delta[l], 1u << (2 * l), nonempty[l], (unsigned long long)bytes[l]);
+			printf("%s{\"level\":%u,\"delta_m\":%.17g,\"patches\":%u,\"nonempty\":%u,\"bytes\":%llu,"
+			       "\"blocks\":%llu,\"blocks_with_data\":%llu}",
+			       l ? "," : "", l, h->delta[l], 1u << (2 * l), nonempty[l], (unsigned long long)bytes[l],
+			       (unsigned long long)nonempty[l] * n_blocks, (unsigned long long)data_blocks[l]);
 		printf("]}\n");
 	} else {
 		printf("%s: relief format %u, %llu bytes\n", path, h->version, (unsigned long long)h->file_size);
@@ -83,11 +105,14 @@ int cmd_info(int argc, char **argv)
 		       (unsigned long long)h->valid_samples, 100.0 * h->valid_samples / ((double)h->width * h->height));
 		printf("  patches    %u samples, %u x %u blocks of %u cells, tolerance %.6g m, ratio %u\n", h->patch_size,
 		       f->layout.blocks, f->layout.blocks, h->block_cells, h->tolerance, h->ratio);
-		printf("  level  delta_m     patches  nonempty  bytes\n");
+		printf("  level  delta_m     patches  nonempty  blocks with data  bytes\n");
 		for (uint32_t l = 0; l < h->levels; l++)
-			printf("  %5u  %-10.6g  %7u  %8u  %llu\n", l, h->delta[l], 1u << (2 * l), nonempty[l],
+			printf("  %5u  %-10.6g  %7u  %8u  %6.1f%%           %llu\n", l, h->delta[l], 1u << (2 * l), nonempty[l],
+			       nonempty[l] ? 100.0 * data_blocks[l] / ((double)nonempty[l] * n_blocks) : 0.0,
 			       (unsigned long long)bytes[l]);
 		printf("  total      %.3f bits per valid sample\n", bps);
+		if (bad_masks)
+			printf("  corrupt    %u patch mask(s) fail their check (blocks with data not counted there)\n", bad_masks);
 	}
 	relief_file_close(f);
 	return 0;

@@ -67,6 +67,21 @@ expect_text info-extent "extent"
 expect_text info-crs "+proj=eqc"
 check info-json 0 "$relief" info "$tmp/ps.relief" --json
 expect_text info-json-levels '"levels":[{"level":0'
+# Blocks with a valid sample (what a renderer tessellates): all of Puget Sound's, not all of
+# Luxembourg's (no-data outside the border, padding beside it).
+blocks_ok() { # name want(all|some) json
+	local pairs
+	pairs=$(grep -o '"blocks":[0-9]*,"blocks_with_data":[0-9]*' <<<"$3" | sed 's/[^0-9,]//g')
+	if [ -n "$pairs" ] && awk -F, -v want="$2" '{ all += $1; data += $2; if ($2 > $1) bad = 1 }
+		END { exit !(!bad && all > 0 && (want == "all" ? data == all : data < all && data > 0)) }' <<<"$pairs"; then
+		passes=$((passes + 1))
+	else
+		echo "FAIL $1: blocks and blocks with data per level: $pairs"; fails=$((fails + 1))
+	fi
+}
+blocks_ok info-json-blocks-puget all "$LAST_OUT"
+check info-json-lux 0 "$relief" info "$tmp/lux.relief" --json
+blocks_ok info-json-blocks-lux some "$LAST_OUT"
 check unpack-raw 0 "$relief" unpack "$tmp/lux.relief" "$tmp/lux.f32" --raw --mask "$tmp/lux.mask"
 [ "$(stat -c %s "$tmp/lux.f32")" -eq $((95 * 90 * 4)) ] || { echo "FAIL raw size"; fails=$((fails + 1)); }
 [ "$(stat -c %s "$tmp/lux.mask")" -eq $((95 * 90)) ] || { echo "FAIL mask size"; fails=$((fails + 1)); }
