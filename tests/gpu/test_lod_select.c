@@ -351,6 +351,14 @@ static void test_views_share_cache(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Three views of Puget Sound that see different terrain: Mt Rainier, grazing across the
+ * map, the north-west corner. */
+static const struct pose three_views[] = {
+	{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
+	{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },
+	{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },
+};
+
 /* Several views' frames in flight at once (relief_terrain_draw_submit(), then
  * relief_terrain_view_wait() for each) give each view, target for target, the pictures
  * and counts it gets when each frame is waited for before the next is submitted; while they
@@ -358,12 +366,8 @@ static void test_views_share_cache(void **state)
  * ids, and the validation layer's synchronisation checks see no hazard. */
 static void test_views_in_flight(void **state)
 {
-	const struct pose poses[] = {
-		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
-		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },
-		{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },
-	};
-	enum { N = 3, FRAMES = 2 };
+	const struct pose *poses = three_views;
+	enum { N = sizeof(three_views) / sizeof(three_views[0]), FRAMES = 2 };
 	struct scene s;
 	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
 	load_everything(&s);
@@ -472,15 +476,12 @@ static void test_views_in_flight(void **state)
  * buffer (relief_vk_capture_begin()): the validation layer's synchronisation checks, which
  * do not look across submissions, then check the barriers between them, from a cold cache
  * (decodes between frames, every view asking) to a warm one. Negative control, run by
- * hand: without the barrier that starts every frame the layer reports hazards. */
+ * hand: without the barrier that ends a decode batch the layer reports 8 read-after-write
+ * hazards (drawing reading decoded heights), which test_views_in_flight does not see. */
 static void test_frames_captured(void **state)
 {
-	const struct pose poses[] = {
-		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
-		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },
-		{ { 8000, 156000, 1500 }, { 2000, 162000, 0 } },
-	};
-	enum { N = 3, ROUNDS = 6 };
+	const struct pose *poses = three_views;
+	enum { N = sizeof(three_views) / sizeof(three_views[0]), ROUNDS = 6 };
 	struct scene s;
 	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
 	struct relief_view views[N];
