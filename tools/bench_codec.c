@@ -269,6 +269,7 @@ int bench_codec(int argc, char **argv)
 			status = 1;
 			continue;
 		}
+		dem_report_dropped("bench codec", argv[i], &dem);
 		c.dem = &dem;
 		c.valid = 0;
 		for (size_t k = 0; k < (size_t)dem.width * dem.height; k++)

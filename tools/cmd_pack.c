@@ -137,10 +137,7 @@ int cmd_pack(int argc, char **argv)
 		fprintf(stderr, "relief pack: %s\n", err);
 		return 1;
 	}
-	if (dem.dropped)
-		fprintf(stderr, "relief pack: %s: %llu sample(s) not finite or beyond %g m (one at column %u, row %u) "
-		        "stored as no-data\n", in, (unsigned long long)dem.dropped, RELIEF_MAX_HEIGHT, dem.dropped_col,
-		        dem.dropped_row);
+	dem_report_dropped("pack", in, &dem);
 	struct progress prog = { .start = now(), .bytes_per_patch = 4.0 * po.patch * po.patch };
 	if (!quiet && isatty(STDERR_FILENO)) {
 		po.progress = progress_bar;

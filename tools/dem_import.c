@@ -313,6 +313,14 @@ out:
 	return ret;
 }
 
+void dem_report_dropped(const char *cmd, const char *path, const struct relief_dem *d)
+{
+	if (d->dropped)
+		fprintf(stderr, "relief %s: %s: %llu sample(s) not finite or beyond %g m (one at column %u, row %u) "
+		        "stored as no-data\n", cmd, path, (unsigned long long)d->dropped, RELIEF_MAX_HEIGHT, d->dropped_col,
+		        d->dropped_row);
+}
+
 int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err, size_t n)
 {
 	GDALAllRegister();

@@ -31,6 +31,9 @@ struct dem_import_options {
 /* 0, or a negative errno with a one-line reason in err. */
 int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err,
                size_t err_size);
+/* Says on stderr, as "relief CMD: PATH: ...", how many samples the import dropped as no
+ * data because they were not heights (relief_dem.dropped), if any. */
+void dem_report_dropped(const char *cmd, const char *path, const struct relief_dem *d);
 /* The same from a raster already open (a GDALDatasetH; the caller keeps and closes it;
  * `path` only names it in messages): size, bands, georeferencing, values, no-data. What
  * dem_import() does after opening, and what the import fuzz target drives directly. */

@@ -127,6 +127,8 @@ check pack-impossible 0 "$relief" pack "$tmp/odd.f32" "$tmp/odd.relief" -t 1 -q 
 expect_text pack-impossible-named "odd.f32: 2 sample(s) not finite or beyond 1e+06 m (one at column 1, row 0) stored as no-data"
 check pack-impossible-nan 0 "$relief" pack "$tmp/odd.f32" "$tmp/odd.relief" -t 1 -q --raw-size 3x2 --raw-type float32 --spacing 30 --nodata nan
 expect_text pack-impossible-nan-named "odd.f32: 1 sample(s) not finite or beyond 1e+06 m (one at column 1, row 0)"
+check bench-codec-impossible 0 "$relief" bench codec "$tmp/odd.f32" --raw-size 3x2 --raw-type float32 --spacing 30 --runs 1
+expect_text bench-codec-impossible-named "relief bench codec: $tmp/odd.f32: 2 sample(s) not finite"
 check info-impossible 0 "$relief" info "$tmp/odd.relief"
 expect_text info-impossible-valid "4 valid samples"
 check pack-raw-half 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief" -t 1 --raw-size 4x4
