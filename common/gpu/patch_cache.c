@@ -590,7 +590,11 @@ int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame)
 		if (in_flight)
 			continue;
 		pthread_mutex_lock(&c->lock);
-		bool worker = c->n_heap || c->in_worker || c->n_ready;
+		/* The workers can still make progress: one is decoding, one has finished, or a
+		 * request waits and a staging slot is free for it. Every slot may instead be held
+		 * by a decoded patch waiting for a layer (pending), which the update above could
+		 * not give it at this frame: then the requests behind them wait too. */
+		bool worker = c->in_worker || c->n_ready || (c->n_heap && c->n_free_slots);
 		if (!worker) {
 			pthread_mutex_unlock(&c->lock);
 			/* Pending symbols here wait for a layer that nothing will free at this frame. */

@@ -346,6 +346,24 @@ static void test_budget_and_eviction(void **state)
 	assert_int_equal(relief_patch_cache_state(c, 2), RELIEF_PATCH_RESIDENT);
 	assert_tree_consistent(c, f);
 	relief_patch_cache_destroy(c);
+
+	/* More requests than staging slots while no layer can be had: the slots fill with
+	 * decoded patches waiting for a layer and the other requests wait behind them. Flush
+	 * says so (-ENOSPC) instead of waiting for workers that cannot go on (it did wait
+	 * forever: a 4097 x 4097 terrain's full-resolution view in a 64 MiB cache). */
+	struct relief_patch_cache_options jam = { .budget_bytes = 64ull << 20, .max_layers = 1, .staging_slots = 2 };
+	assert_int_equal(relief_patch_cache_create(vk, f, &jam, NULL, &c), 0);
+	relief_patch_cache_request(c, 0, 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), 0);
+	relief_patch_cache_touch(c, 0, 1);
+	for (uint32_t id = 1; id < 5; id++)
+		assert_int_equal(relief_patch_cache_request(c, id, 0), 0);
+	assert_int_equal(relief_patch_cache_flush(c, 1), -ENOSPC);
+	relief_patch_cache_stats(c, &s);
+	assert_int_equal(s.used, 1);
+	assert_int_equal(s.queue_entries, 2); /* two requests behind the two slots */
+	assert_int_equal(relief_patch_cache_state(c, 0), RELIEF_PATCH_RESIDENT);
+	relief_patch_cache_destroy(c);
 	terrain_close(&t);
 	gpu_test_assert_clean(vk);
 }
