@@ -4,8 +4,11 @@
 // coarser patch's vertices only, and puts every border vertex on the coarser patch's drawn
 // edge. Needs terrain_factors.glsl.
 
-// How many levels finer than `it` the patch drawn across its border block bl on `side` is,
-// when one patch covers that block edge there (1 to log2(blocks) levels finer), else 0.
+// How many levels finer than `it` the finest patch drawn across its border block bl on
+// `side` is (0: none finer). Up to log2(blocks) levels finer one patch covers the block
+// edge at each level; beyond, 2^j / blocks patches share it and each is looked at. Looked
+// for up to log2(BLOCK_CELLS) levels, the finest a block edge can draw every corner of
+// (factor 16); a patch finer still is drawn across as if 4 levels finer.
 uint finer_across(Instance it, ivec2 bl, uint side)
 {
 	if (neighbour_id(it, side) < 0)
@@ -14,17 +17,23 @@ uint finer_across(Instance it, ivec2 bl, uint side)
 	if (drawn[first_id(it.level) + uint(q.y) * (1u << it.level) + uint(q.x)] != 0u)
 		return 0u;
 	int b = int(pc.blocks), along = side >= 2u ? bl.y : bl.x;
-	for (uint j = 1u; j <= uint(findMSB(b)); j++) {
+	uint found = 0u;
+	for (uint j = 1u; j <= uint(findMSB(BLOCK_CELLS)); j++) {
 		uint l = it.level + j;
 		if (first_id(l) >= uint(drawn.length()))
 			break; // finer than the finest level
-		int m = 1 << j, a = along * m / b; // cells per side at level l; the one along bl
-		ivec2 c = side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : side == 3u ? ivec2(q.x * m, q.y * m + a)
-		        : side == 0u ? ivec2(q.x * m + a, q.y * m + m - 1) : ivec2(q.x * m + a, q.y * m);
-		if (drawn[first_id(l) + uint(c.y) * (1u << l) + uint(c.x)] != 0u)
-			return j;
+		// cells per side at level l; those along bl: a0 .. a0 + n - 1
+		int m = 1 << j, a0 = along * m / b, n = max(m / b, 1);
+		for (int a = a0; a < a0 + n; a++) {
+			ivec2 c = side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : side == 3u ? ivec2(q.x * m, q.y * m + a)
+			        : side == 0u ? ivec2(q.x * m + a, q.y * m + m - 1) : ivec2(q.x * m + a, q.y * m);
+			if (drawn[first_id(l) + uint(c.y) * (1u << l) + uint(c.x)] != 0u)
+				found = j;
+		}
+		if (j <= uint(findMSB(b)) && found != 0u)
+			return found; // one patch covers the block edge: nothing finer is drawn there
 	}
-	return 0u;
+	return found;
 }
 
 // The factor `it` draws its border block bl's edge on `side` with when nothing coarser is

@@ -25,8 +25,14 @@ void scene_open_at(struct scene *s, struct relief_vk *vk, enum test_dem d, doubl
 void scene_open_dem(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, double tol, uint32_t w,
                     uint32_t h, uint32_t max_layers)
 {
+	scene_open_dem_patch(s, vk, dem, 129, tol, w, h, max_layers);
+}
+
+void scene_open_dem_patch(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch,
+                          double tol, uint32_t w, uint32_t h, uint32_t max_layers)
+{
 	s->ctx = vk;
-	struct relief_pack_options o = { .patch = 129, .ratio = 2, .tolerance = tol };
+	struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = tol };
 	assert_int_equal(relief_pack_memory(dem, &o, &s->img, &s->size, NULL), 0);
 	char err[256];
 	assert_int_equal(relief_file_open_memory(s->img, s->size, &s->f, err, sizeof(err)), 0);
@@ -160,7 +166,12 @@ void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem)
 
 void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem)
 {
-	scene_open_dem(&b->s, vk, dem, 1.0, BW, BH, 0);
+	bound_open_dem_patch(b, vk, dem, 129);
+}
+
+void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch)
+{
+	scene_open_dem_patch(&b->s, vk, dem, patch, 1.0, BW, BH, 0);
 	bound_buffers(b);
 }
 

@@ -33,6 +33,9 @@ void scene_open(struct scene *s, struct relief_vk *vk, enum test_dem d, double t
 /* The same for a DEM of the test's own (the caller keeps it). */
 void scene_open_dem(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, double tol, uint32_t w,
                     uint32_t h, uint32_t max_layers);
+/* The same with patches of `patch` samples (65, 129 or 257) instead of 129. */
+void scene_open_dem_patch(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch,
+                          double tol, uint32_t w, uint32_t h, uint32_t max_layers);
 /* Also for a scene whose parts were made by hand (ctx set, img NULL). */
 void scene_close(struct scene *s);
 
@@ -83,6 +86,7 @@ struct bound_scene {
 void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);
 /* The same for a DEM of the test's own (the caller keeps it). */
 void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem);
+void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch);
 /* Also fails the test if the validation layer spoke. */
 void bound_close(struct bound_scene *b);
 
