@@ -5,10 +5,10 @@
 // edge. Needs terrain_factors.glsl.
 
 // How many levels finer than `it` the finest patch drawn across its border block bl on
-// `side` is (0: none finer). Up to log2(blocks) levels finer one patch covers the block
-// edge at each level; beyond, 2^j / blocks patches share it and each is looked at. Looked
-// for up to log2(BLOCK_CELLS) levels, the finest a block edge can draw every corner of
-// (factor 16); a patch finer still is drawn across as if 4 levels finer.
+// `side` is (0: none finer), at most log2(BLOCK_CELLS) = 4: the finest a block edge can
+// draw every corner of (factor 16); a patch finer still counts as 4 levels finer. Up to
+// log2(blocks) levels finer one patch covers the block edge at each level; beyond,
+// 2^j / blocks patches share it and each is looked at.
 uint finer_across(Instance it, ivec2 bl, uint side)
 {
 	if (neighbour_id(it, side) < 0)
@@ -18,7 +18,7 @@ uint finer_across(Instance it, ivec2 bl, uint side)
 		return 0u;
 	int b = int(pc.blocks), along = side >= 2u ? bl.y : bl.x;
 	uint found = 0u;
-	for (uint j = 1u; j <= uint(findMSB(BLOCK_CELLS)); j++) {
+	for (uint j = 1u;; j++) {
 		uint l = it.level + j;
 		if (first_id(l) >= uint(drawn.length()))
 			break; // finer than the finest level
@@ -30,10 +30,10 @@ uint finer_across(Instance it, ivec2 bl, uint side)
 			if (drawn[first_id(l) + uint(c.y) * (1u << l) + uint(c.x)] != 0u)
 				found = j;
 		}
-		if (j <= uint(findMSB(b)) && found != 0u)
-			return found; // one patch covers the block edge: nothing finer is drawn there
+		if (found >= uint(findMSB(BLOCK_CELLS)) || (j <= uint(findMSB(b)) && found != 0u))
+			return min(found, uint(findMSB(BLOCK_CELLS))); // nothing finer matters
 	}
-	return found;
+	return min(found, uint(findMSB(BLOCK_CELLS)));
 }
 
 // The factor `it` draws its border block bl's edge on `side` with when nothing coarser is
