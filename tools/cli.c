@@ -56,15 +56,19 @@ bool cli_parse_u32(const char *cmd, const char *opt, const char *s, uint32_t min
 	return true;
 }
 
-bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h)
+bool cli_parse_dims(const char *cmd, const char *opt, const char *s, uint32_t max, uint32_t *w, uint32_t *h)
 {
 	const char *x = strchr(s, 'x');
-	if (!x || !parse_u32_span(s, (size_t)(x - s), 1, 16384, w) ||
-	    !parse_u32_span(x + 1, strlen(x + 1), 1, 16384, h)) {
-		fprintf(stderr, "relief %s: %s: '%s' is not WIDTHxHEIGHT with both in [1, 16384]\n", cmd, opt, s);
+	if (!x || !parse_u32_span(s, (size_t)(x - s), 1, max, w) || !parse_u32_span(x + 1, strlen(x + 1), 1, max, h)) {
+		fprintf(stderr, "relief %s: %s: '%s' is not WIDTHxHEIGHT with both in [1, %u]\n", cmd, opt, s, max);
 		return false;
 	}
 	return true;
+}
+
+bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h)
+{
+	return cli_parse_dims(cmd, opt, s, 16384, w, h);
 }
 
 bool cli_parse_list(const char *cmd, const char *opt, const char *s, double min, double max, double *out,

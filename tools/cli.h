@@ -26,6 +26,9 @@ void cli_log_set_level(enum relief_log_level level);
  * Whole numbers and sizes are plain digits: no sign, no spaces, no leading "+". */
 bool cli_parse_double(const char *cmd, const char *opt, const char *s, double *out);
 bool cli_parse_u32(const char *cmd, const char *opt, const char *s, uint32_t min, uint32_t max, uint32_t *out);
+/* WIDTHxHEIGHT, both in [1, max]. */
+bool cli_parse_dims(const char *cmd, const char *opt, const char *s, uint32_t max, uint32_t *w, uint32_t *h);
+/* A viewport: cli_parse_dims() with the viewport's limit, 16384 pixels a side. */
 bool cli_parse_size(const char *cmd, const char *opt, const char *s, uint32_t *w, uint32_t *h);
 bool cli_parse_vec3(const char *cmd, const char *opt, const char *s, double out[3]);
 /* Comma-separated finite numbers, each in [min, max]: 1 to cap of them into out[], *n the

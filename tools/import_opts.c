@@ -65,7 +65,9 @@ bool import_option(const char *cmd, int c, const char *arg, struct dem_import_op
 		}
 		return cli_parse_double(cmd, "--nodata", arg, &o->nodata);
 	case OPT_RAW_SIZE:
-		return cli_parse_size(cmd, "--raw-size", arg, &o->raw_width, &o->raw_height);
+		/* A raster, not a viewport: as large as a .relief file holds at 129-sample
+		 * patches (16 levels, 4,194,305 samples a side), memory permitting. */
+		return cli_parse_dims(cmd, "--raw-size", arg, 1u << 22, &o->raw_width, &o->raw_height);
 	case OPT_RAW_TYPE:
 		if (strcmp(arg, "int16") && strcmp(arg, "float32")) {
 			fprintf(stderr, "relief %s: --raw-type: '%s' is not int16 or float32\n", cmd, arg);

@@ -133,6 +133,12 @@ check info-impossible 0 "$relief" info "$tmp/odd.relief"
 expect_text info-impossible-valid "4 valid samples"
 check pack-raw-half 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/x.relief" -t 1 --raw-size 4x4
 expect_text pack-raw-half-named "--raw-size and --raw-type"
+# A raw raster's side is not a viewport's: wider than 16384 samples is accepted (then this
+# 24-byte file is the wrong size for it), beyond what a file can hold is not.
+check pack-raw-wide 1 "$relief" pack "$tmp/odd.f32" "$tmp/x.relief" -t 1 --raw-size 20000x3 --raw-type float32 --spacing 30
+expect_text pack-raw-wide-named "20000x3 float32 samples need 240000"
+check pack-raw-too-wide 2 "$relief" pack "$tmp/odd.f32" "$tmp/x.relief" -t 1 --raw-size 4194305x3 --raw-type float32 --spacing 30
+expect_text pack-raw-too-wide-named "both in [1, 4194304]"
 # bad input keeps what is already stored
 cp "$tmp/lux.relief" "$tmp/keep.relief"
 check pack-missing-input 1 "$relief" pack "$tmp/missing.tif" "$tmp/keep.relief" -t 1
