@@ -21,7 +21,7 @@ enum {
 	H_TOL = 56, H_OX = 64, H_OY = 72, H_SX = 80, H_SY = 88, H_HMIN = 96, H_HMAX = 104, H_VALID = 112,
 	H_INDEX = 120, H_BLOCKERR = 128, H_MASKOFF = 136, H_CRSOFF = 144, H_DATAOFF = 152, H_DATASIZE = 160,
 	H_FILESIZE = 168, H_CRSSIZE = 176, H_INDEXCRC = 180, H_BLOCKCRC = 184, H_MASKCRC = 188, H_CRSCRC = 192,
-	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_RESERVED = 336, H_CRC = 508,
+	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_BLOCKPATCHES = 336, H_CRC = 508,
 };
 
 static size_t blocks_per_patch(uint32_t patch_size)
@@ -41,11 +41,16 @@ size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
 	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? blocks_per_patch(patch_size) : 0);
 }
 
-/* Patch id's bytes in the block section: its errors, then (version 4) its range bytes. */
+/* Patch id's bytes in the block section: its errors, then (version 4) its range bytes. An
+ * EMPTY patch of version 5 has none: it reads as zero bytes, what earlier packers wrote. */
 static const uint8_t *patch_block_bytes(const struct relief_file *f, uint32_t id)
 {
+	static const uint8_t none[16 * 16 * 5];
+	uint32_t slot = f->block_slot[id];
+	if (slot == UINT32_MAX)
+		return none;
 	return f->meta + f->hdr.block_errors_offset +
-	       (uint64_t)id * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size);
+	       (uint64_t)slot * relief_block_bytes_per_patch(f->hdr.version, f->hdr.patch_size);
 }
 
 size_t relief_block_errors_per_patch(uint32_t patch_size)
@@ -91,6 +96,8 @@ void relief_header_write(const struct relief_header *h, uint8_t *o)
 	le_put_u32(o + H_MASKCRC, h->masks_crc);
 	le_put_u32(o + H_CRSCRC, h->crs_crc);
 	le_put_u32(o + H_FLAGS, h->flags);
+	if (h->version >= 5)
+		le_put_u32(o + H_BLOCKPATCHES, h->block_patches);
 	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
 		le_put_f64(o + H_DELTA + 8 * l, l < h->levels ? h->delta[l] : 0.0);
 	le_put_u32(o + H_CRC, relief_crc32c(0, o, H_CRC));
@@ -144,7 +151,8 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	uint32_t crc = relief_crc32c(0, b, H_CRC);
 	if (crc_differs(crc, le_get_u32(b + H_CRC)))
 		return bad(err, err_size, "header checksum mismatch (stored %08x, computed %08x)", le_get_u32(b + H_CRC), crc);
-	for (size_t i = H_RESERVED; i < H_CRC; i++)
+	/* Version 5 uses the first reserved word for the block section's record count. */
+	for (size_t i = r.version >= 5 ? H_BLOCKPATCHES + 4 : H_BLOCKPATCHES; i < H_CRC; i++)
 		if (b[i])
 			return bad(err, err_size, "reserved header byte %zu is not zero", i);
 	r.patch_size = le_get_u32(b + H_PATCH);
@@ -157,6 +165,7 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	r.source_units = le_get_u32(b + H_UNITS);
 	r.patch_count = le_get_u32(b + H_PATCHES);
 	r.mask_count = le_get_u32(b + H_MASKS);
+	r.block_patches = r.version >= 5 ? le_get_u32(b + H_BLOCKPATCHES) : r.patch_count;
 	r.tolerance = le_get_f64(b + H_TOL);
 	r.origin_x = le_get_f64(b + H_OX);
 	r.origin_y = le_get_f64(b + H_OY);
@@ -234,7 +243,9 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "file is %zu bytes but its header says %llu (truncated or extended)", size,
 		           (unsigned long long)r.file_size);
 	uint64_t idx_len = (uint64_t)r.patch_count * RELIEF_INDEX_RECORD_SIZE;
-	uint64_t be_len = (uint64_t)r.patch_count * relief_block_bytes_per_patch(r.version, r.patch_size);
+	if (r.block_patches < 1 || r.block_patches > r.patch_count)
+		return bad(err, err_size, "%u block records for %u patches", r.block_patches, r.patch_count);
+	uint64_t be_len = (uint64_t)r.block_patches * relief_block_bytes_per_patch(r.version, r.patch_size);
 	uint64_t mask_len = r.masks_size;
 	if ((r.mask_count == 0) != (mask_len == 0))
 		return bad(err, err_size, "mask section of %llu bytes for %u masks", (unsigned long long)mask_len,
@@ -287,7 +298,7 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	const uint8_t *b = f->meta;
 	uint64_t idx_len = (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE;
 	size_t be_per = relief_block_bytes_per_patch(h->version, h->patch_size);
-	uint64_t be_len = (uint64_t)h->patch_count * be_per;
+	uint64_t be_len = (uint64_t)h->block_patches * be_per;
 	uint64_t mask_len = h->masks_size;
 	if (crc_differs(relief_crc32c(0, b + h->index_offset, idx_len), h->index_crc))
 		return bad(err, err_size, "index checksum mismatch");
@@ -300,11 +311,22 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	if (memchr(b + h->crs_offset, 0, h->crs_size))
 		return bad(err, err_size, "CRS text contains a NUL byte");
 
-	uint32_t masks_seen = 0;
+	if (!(f->block_slot = malloc(sizeof(uint32_t) * h->patch_count)))
+		return -ENOMEM;
+	uint32_t masks_seen = 0, slots = 0;
 	int ret = 0;
 	for (uint32_t id = 0; id < h->patch_count && ret == 0; id++) {
 		struct relief_patch_record r;
 		relief_record_read(b + h->index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, &r);
+		/* Version 5 stores block records for non-EMPTY patches only, in id order. */
+		if (h->version >= 5 && (r.flags & RELIEF_PATCH_EMPTY)) {
+			f->block_slot[id] = UINT32_MAX;
+		} else if (slots == h->block_patches) {
+			ret = bad(err, err_size, "patch %u has no block record (the header counts %u)", id, h->block_patches);
+			break;
+		} else {
+			f->block_slot[id] = slots++;
+		}
 		uint32_t l, px, py;
 		relief_patch_coords(&f->layout, id, &l, &px, &py);
 		if (r.flags & ~RELIEF_PATCH_FLAGS_KNOWN)
@@ -353,6 +375,8 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	}
 	if (ret == 0 && masks_seen != h->mask_count)
 		ret = bad(err, err_size, "%u masked patches but the header counts %u", masks_seen, h->mask_count);
+	if (ret == 0 && slots != h->block_patches)
+		ret = bad(err, err_size, "%u patches with block records but the header counts %u", slots, h->block_patches);
 	return ret;
 }
 
@@ -472,6 +496,7 @@ void relief_file_close(struct relief_file *f)
 	if (f->fd >= 0)
 		close(f->fd);
 	free(f->meta_owned);
+	free(f->block_slot);
 	free(f->crs);
 	free(f->path);
 	free(f);

@@ -26,7 +26,7 @@
  * the valid extent (relief_patch_window()); 4: block errors measured against the finest
  * decoded surface, and block height ranges (patch_error.h). Versions 2 and 3 are still
  * read. */
-#define RELIEF_FORMAT_VERSION 4u
+#define RELIEF_FORMAT_VERSION 5u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 #define RELIEF_INDEX_RECORD_SIZE 40u
@@ -68,6 +68,9 @@ struct relief_header {
 		file_size;
 	uint32_t crs_size;
 	uint32_t index_crc, block_errors_crc, masks_crc, crs_crc;
+	/* Patches with a record in the block section: from version 5 the non-EMPTY ones, in id
+	 * order; before, every patch (the header's field is new in version 5). */
+	uint32_t block_patches;
 	double delta[RELIEF_MAX_LEVELS];
 };
 
@@ -105,6 +108,7 @@ struct relief_file {
 	const uint8_t *image;  /* memory images only: the whole file (borrowed) */
 	int fd;                /* files only: CLOEXEC, for pread(); -1 for memory images */
 	uint32_t max_stream;   /* largest patch stream, bytes */
+	uint32_t *block_slot;  /* per patch: its record in the block section; UINT32_MAX: none (EMPTY, version 5) */
 	char *crs;             /* NUL-terminated copy of the CRS text (may be empty) */
 	char *path;            /* files only: the path it was opened with (for messages) */
 };

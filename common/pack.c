@@ -312,12 +312,13 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		}
 		st->empty_patches += !!(p->rec[id].flags & RELIEF_PATCH_EMPTY);
 	}
+	h.block_patches = n - st->empty_patches; /* block records for patches with data only */
 	st->masked_patches = h.mask_count;
 	st->stream_bytes = data_size;
 	size_t crs_len = dem->crs_wkt ? strlen(dem->crs_wkt) : 0;
 	h.index_offset = RELIEF_HEADER_SIZE;
 	h.block_errors_offset = align8(h.index_offset + (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
-	h.masks_offset = align8(h.block_errors_offset + (uint64_t)n * be_per);
+	h.masks_offset = align8(h.block_errors_offset + (uint64_t)h.block_patches * be_per);
 	h.crs_offset = align8(h.masks_offset + h.masks_size);
 	h.crs_size = (uint32_t)crs_len;
 	h.data_offset = align8(h.crs_offset + crs_len);
@@ -327,16 +328,19 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	uint8_t *img = calloc(1, h.file_size);
 	if (!img)
 		return -ENOMEM;
+	uint64_t slot = 0;
 	for (uint32_t id = 0; id < n; id++) {
 		relief_record_write(&p->rec[id], img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE);
-		uint8_t *be = img + h.block_errors_offset + (uint64_t)id * be_per;
-		for (size_t i = 0; i < ne; i++)
-			be[i] = relief_block_error_encode(p->eps[id * ne + i], p->lay.tolerance / 64.0);
 		const struct relief_patch_record *r = &p->rec[id];
-		const double *rg = p->ranges + id * nr;
-		for (size_t i = 0; i < nr && !(r->flags & RELIEF_PATCH_EMPTY); i += 2)
-			be[ne + i / 2] = relief_block_range_encode(rg[i], r->height_min, r->height_max, false) |
-			                 relief_block_range_encode(rg[i + 1], r->height_min, r->height_max, true) << 4;
+		if (!(r->flags & RELIEF_PATCH_EMPTY)) {
+			uint8_t *be = img + h.block_errors_offset + slot++ * be_per;
+			for (size_t i = 0; i < ne; i++)
+				be[i] = relief_block_error_encode(p->eps[id * ne + i], p->lay.tolerance / 64.0);
+			const double *rg = p->ranges + id * nr;
+			for (size_t i = 0; i < nr; i += 2)
+				be[ne + i / 2] = relief_block_range_encode(rg[i], r->height_min, r->height_max, false) |
+				                 relief_block_range_encode(rg[i + 1], r->height_min, r->height_max, true) << 4;
+		}
 		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
 			memcpy(img + h.masks_offset + p->rec[id].mask_offset, p->mask[id], p->mask_size[id]);
 		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY))
@@ -345,7 +349,7 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	if (crs_len)
 		memcpy(img + h.crs_offset, dem->crs_wkt, crs_len);
 	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
-	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)n * be_per);
+	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)h.block_patches * be_per);
 	h.masks_crc = relief_crc32c(0, img + h.masks_offset, h.masks_size);
 	h.crs_crc = relief_crc32c(0, img + h.crs_offset, crs_len);
 	relief_header_write(&h, img);

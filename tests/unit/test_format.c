@@ -89,7 +89,7 @@ static void test_bit_flips(void **state)
 		{ 0, RELIEF_HEADER_SIZE },
 		{ h->index_offset, h->index_offset + (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE },
 		{ h->block_errors_offset,
-		  h->block_errors_offset + h->patch_count * relief_block_bytes_per_patch(h->version, h->patch_size) },
+		  h->block_errors_offset + h->block_patches * relief_block_bytes_per_patch(h->version, h->patch_size) },
 		{ h->masks_offset, h->masks_offset + h->masks_size },
 		{ h->crs_offset, h->crs_offset + h->crs_size },
 	};
@@ -190,6 +190,8 @@ static void test_hostile_header_fields(void **state)
 	expect(open_with_u32(176, 1u << 31, err, sizeof(err)), err, "CRS");
 	/* A reserved byte set. */
 	expect(open_with_u32(400, 1, err, sizeof(err)), err, "reserved");
+	expect(open_with_u32(336, 0, err, sizeof(err)), err, "block records"); /* version 5's count */
+	expect(open_with_u32(336, 1000000, err, sizeof(err)), err, "block records");
 }
 
 /* Rewrites index record `id` (fixing the index CRC). */
@@ -248,12 +250,14 @@ static void test_inverted_block_range(void **state)
 	for (size_t i = 0; i < relief_block_ranges_per_patch(h.patch_size); i += 2)
 		assert_true(rg[i] <= rg[i + 1]);
 	free(rg);
+	const size_t slot1 = f->block_slot[1];
+	assert_true(slot1 < h.block_patches);
 	relief_file_close(f);
 	uint8_t *copy = malloc(img_size);
 	memcpy(copy, img, img_size);
-	uint8_t *b = copy + h.block_errors_offset + per + errors + 5; /* patch 1, block 5 */
+	uint8_t *b = copy + h.block_errors_offset + slot1 * per + errors + 5; /* patch 1, block 5 */
 	*b = 0x3c; /* low code 12, high code 3 */
-	le_put_u32(copy + 184, relief_crc32c(0, copy + h.block_errors_offset, (size_t)h.patch_count * per));
+	le_put_u32(copy + 184, relief_crc32c(0, copy + h.block_errors_offset, (size_t)h.block_patches * per));
 	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
 	expect(open_copy(copy, img_size, err, sizeof(err)), err, "block 5's height range is inverted");
 	free(copy);
@@ -373,6 +377,82 @@ static void test_version2_still_read(void **state)
 	free(v3img);
 }
 
+/* Version 4 is still read. tests/data/alps-crop-140x100-v4.relief was written by the last
+ * version-4 packer (commit 8180fba) from the Mont Blanc crop with the options of the
+ * version-2 file above. Version 5 only drops the block records of EMPTY patches (12 of this
+ * file's 21), which read as zero bytes, what version 4 stored for them: the same input
+ * packed now has the same index and streams, every patch's block errors and ranges read
+ * equal, and the file is smaller by those records. */
+static void test_version4_still_read(void **state)
+{
+	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
+	                                .raw_type = "float32" };
+	struct relief_dem dem;
+	char err[512] = "";
+	if (dem_import(test_data("alps-crop-140x100.f32"), &o, &dem, err, sizeof(err)) < 0)
+		fail_msg("import: %s", err);
+	struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0 };
+	uint8_t *img5;
+	size_t size5;
+	assert_int_equal(relief_pack_memory(&dem, &po, &img5, &size5, NULL), 0);
+	relief_dem_finish(&dem);
+	struct relief_file *v4, *v5;
+	assert_int_equal(relief_file_open(test_data("alps-crop-140x100-v4.relief"), &v4, err, sizeof(err)), 0);
+	assert_int_equal(relief_file_open_memory(img5, size5, &v5, err, sizeof(err)), 0);
+	assert_int_equal(v4->hdr.version, 4);
+	assert_int_equal(v5->hdr.version, 5);
+	const uint32_t n = v4->hdr.patch_count;
+	assert_int_equal(v5->hdr.patch_count, n);
+	assert_int_equal(v4->hdr.block_patches, n);
+	uint32_t empty = 0;
+	const size_t ne = relief_block_errors_per_patch(v4->hdr.patch_size);
+	const size_t nr = relief_block_ranges_per_patch(v4->hdr.patch_size);
+	float *e4 = malloc(sizeof(float) * ne), *e5 = malloc(sizeof(float) * ne);
+	float *r4 = malloc(sizeof(float) * nr), *r5 = malloc(sizeof(float) * nr);
+	for (uint32_t id = 0; id < n; id++) {
+		struct relief_patch_record a, b;
+		relief_file_record(v4, id, &a);
+		relief_file_record(v5, id, &b);
+		assert_memory_equal(&a, &b, sizeof(a));
+		empty += !!(a.flags & RELIEF_PATCH_EMPTY);
+		relief_file_block_errors(v4, id, e4);
+		relief_file_block_errors(v5, id, e5);
+		assert_memory_equal(e4, e5, sizeof(float) * ne);
+		relief_file_block_ranges(v4, id, r4);
+		relief_file_block_ranges(v5, id, r5);
+		assert_memory_equal(r4, r5, sizeof(float) * nr);
+	}
+	assert_int_equal(empty, 12);
+	assert_int_equal(v5->hdr.block_patches, n - empty);
+	assert_int_equal(v5->hdr.data_size, v4->hdr.data_size);
+	uint8_t *s4 = malloc(v4->max_stream), *s5 = malloc(v5->max_stream);
+	for (uint32_t id = 0; id < n; id++) {
+		size_t z4, z5;
+		int a = relief_file_read_stream(v4, id, s4, &z4), b = relief_file_read_stream(v5, id, s5, &z5);
+		assert_int_equal(a, b); /* -ENOENT for both where EMPTY */
+		if (a == 0) {
+			assert_int_equal(z4, z5);
+			assert_memory_equal(s4, s5, z4);
+		}
+	}
+	free(s4);
+	free(s5);
+	struct stat st;
+	assert_int_equal(stat(test_data("alps-crop-140x100-v4.relief"), &st), 0);
+	const size_t per = relief_block_bytes_per_patch(4, v4->hdr.patch_size);
+	print_message("version 4: %lld bytes, version 5: %zu bytes (%u empty patches x %zu block bytes)\n",
+	              (long long)st.st_size, size5, empty, per);
+	assert_true((uint64_t)st.st_size - size5 + 8 > (uint64_t)empty * per &&
+	            (uint64_t)st.st_size - size5 < (uint64_t)empty * per + 8); /* up to alignment */
+	free(e4);
+	free(e5);
+	free(r4);
+	free(r5);
+	relief_file_close(v4);
+	relief_file_close(v5);
+	free(img5);
+}
+
 /* Which blocks of a patch have a valid sample: a sample on a block corner belongs to the
  * four blocks around it, one on a block edge to two, one inside to its block alone. */
 static void test_mask_blocks(void **state)
@@ -411,6 +491,7 @@ int main(void)
 		cmocka_unit_test(test_inverted_block_range),
 		cmocka_unit_test(test_open_from_disk),
 		cmocka_unit_test(test_version2_still_read),
+		cmocka_unit_test(test_version4_still_read),
 		cmocka_unit_test(test_mask_blocks),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);
