@@ -294,7 +294,10 @@ static void test_open_from_disk(void **state)
  * level, and the version-3 streams must be smaller (those at the east and south edges
  * skip the padding beyond 140 x 100 in the 257 x 257 grid). The file written now is
  * version 4 (v3 below), whose streams are version 3's. */
-static void test_version2_still_read(void **state)
+/* The Mont Blanc crop packed now (*image, *size, opened as *now) and the older file `old`
+ * in tests/data packed from it with the same options (opened as *then). */
+static void open_crop_pair(const char *old, uint8_t **image, size_t *size, struct relief_file **then,
+                           struct relief_file **now)
 {
 	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
 	                                .raw_type = "float32" };
@@ -303,13 +306,19 @@ static void test_version2_still_read(void **state)
 	if (dem_import(test_data("alps-crop-140x100.f32"), &o, &dem, err, sizeof(err)) < 0)
 		fail_msg("import: %s", err);
 	struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0 };
+	assert_int_equal(relief_pack_memory(&dem, &po, image, size, NULL), 0);
+	relief_dem_finish(&dem);
+	if (relief_file_open(test_data(old), then, err, sizeof(err)) < 0)
+		fail_msg("%s: %s", old, err);
+	assert_int_equal(relief_file_open_memory(*image, *size, now, err, sizeof(err)), 0);
+}
+
+static void test_version2_still_read(void **state)
+{
 	uint8_t *v3img;
 	size_t v3size;
-	assert_int_equal(relief_pack_memory(&dem, &po, &v3img, &v3size, NULL), 0);
-	relief_dem_finish(&dem);
 	struct relief_file *v2, *v3;
-	assert_int_equal(relief_file_open(test_data("alps-crop-140x100-v2.relief"), &v2, err, sizeof(err)), 0);
-	assert_int_equal(relief_file_open_memory(v3img, v3size, &v3, err, sizeof(err)), 0);
+	open_crop_pair("alps-crop-140x100-v2.relief", &v3img, &v3size, &v2, &v3);
 	assert_int_equal(v2->hdr.version, 2);
 	assert_int_equal(v3->hdr.version, RELIEF_FORMAT_VERSION);
 	assert_int_equal(v2->hdr.levels, 3);
@@ -385,20 +394,10 @@ static void test_version2_still_read(void **state)
  * equal, and the file is smaller by those records. */
 static void test_version4_still_read(void **state)
 {
-	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
-	                                .raw_type = "float32" };
-	struct relief_dem dem;
-	char err[512] = "";
-	if (dem_import(test_data("alps-crop-140x100.f32"), &o, &dem, err, sizeof(err)) < 0)
-		fail_msg("import: %s", err);
-	struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0 };
 	uint8_t *img5;
 	size_t size5;
-	assert_int_equal(relief_pack_memory(&dem, &po, &img5, &size5, NULL), 0);
-	relief_dem_finish(&dem);
 	struct relief_file *v4, *v5;
-	assert_int_equal(relief_file_open(test_data("alps-crop-140x100-v4.relief"), &v4, err, sizeof(err)), 0);
-	assert_int_equal(relief_file_open_memory(img5, size5, &v5, err, sizeof(err)), 0);
+	open_crop_pair("alps-crop-140x100-v4.relief", &img5, &size5, &v4, &v5);
 	assert_int_equal(v4->hdr.version, 4);
 	assert_int_equal(v5->hdr.version, 5);
 	const uint32_t n = v4->hdr.patch_count;
