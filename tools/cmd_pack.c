@@ -147,6 +147,18 @@ int cmd_pack(int argc, char **argv)
 	size_t size = 0;
 	struct relief_pack_stats st;
 	ret = relief_pack_memory(&dem, &po, &img, &size, &st);
+	if (ret == -ENOMEM) {
+		/* The padded square, not the raster, sets the memory (docs/format.md, "Known limits"). */
+		uint32_t levels = relief_layout_levels_for(po.patch, dem.width, dem.height);
+		double side = (double)(po.patch - 1) * ldexp(1.0, (int)levels - 1) + 1;
+		fprintf(stderr,
+		        "relief pack: %s: out of memory: the quadtree is square, so this %u x %u raster is packed in a "
+		        "%.0f x %.0f grid (%.3g G samples; packing holds about 11 bytes per grid sample, see "
+		        "docs/format.md, \"Known limits\")\n",
+		        in, dem.width, dem.height, side, side, side * side / 1e9);
+		relief_dem_finish(&dem);
+		return 1;
+	}
 	if (ret < 0) {
 		const char *why = ret == -ENODATA ? "no valid sample" :
 		                  ret == -ERANGE ? "heights too large for this tolerance (|h| / (2 tolerance) must stay below 2^24)" :
