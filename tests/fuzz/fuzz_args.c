@@ -1,8 +1,9 @@
 /* The command-line argument parsers of `relief` (tools/cli.c): whole numbers, numbers,
- * WIDTHxHEIGHT, X,Y,Z and comma-separated lists. The first byte picks the parser ('u',
- * 'd', 's', 'v', 'l'; anything else: every one), the rest is the argument. What a parser
- * accepts must be what its contract says: in range, finite, and for lists exactly one
- * value per comma-separated field (no field dropped or merged). Refusals print a line. */
+ * WIDTHxHEIGHT (a viewport's, or a raster's up to 2^22), X,Y,Z and comma-separated lists.
+ * The first byte picks the parser ('u', 'd', 's', 'r', 'v', 'l'; anything else: every
+ * one), the rest is the argument. What a parser accepts must be what its contract says: in
+ * range, finite, and for lists exactly one value per comma-separated field (no field
+ * dropped or merged). Refusals print a line. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,12 +57,14 @@ static void check_double(const char *s)
 		abort();
 }
 
-static void check_size(const char *s)
+/* A viewport (cli_parse_size(), max 0) or a raster's dimensions (cli_parse_dims() up to max). */
+static void check_size(const char *s, uint32_t max)
 {
 	uint32_t w, h;
-	if (!cli_parse_size("fuzz", "--s", s, &w, &h))
+	if (!(max ? cli_parse_dims("fuzz", "--s", s, max, &w, &h) : cli_parse_size("fuzz", "--s", s, &w, &h)))
 		return;
-	if (w < 1 || h < 1 || w > 16384 || h > 16384)
+	uint32_t most = max ? max : 16384;
+	if (w < 1 || h < 1 || w > most || h > most)
 		abort();
 	const char *x = strchr(s, 'x');
 	char a[16], b[16];
@@ -108,13 +111,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	switch (data[0]) {
 	case 'u': check_u32(s); break;
 	case 'd': check_double(s); break;
-	case 's': check_size(s); break;
+	case 's': check_size(s, 0); break;
+	case 'r': check_size(s, 1u << 22); break;
 	case 'v': check_vec3(s); break;
 	case 'l': check_list(s); break;
 	default:
 		check_u32(s);
 		check_double(s);
-		check_size(s);
+		check_size(s, 0);
+		check_size(s, 1u << 22);
 		check_vec3(s);
 		check_list(s);
 	}
