@@ -270,6 +270,11 @@ int bench_codec(int argc, char **argv)
 			continue;
 		}
 		dem_report_dropped("bench codec", argv[i], &dem);
+		if (!dem_pack_fits("bench codec", argv[i], &dem, 129)) {
+			relief_dem_finish(&dem);
+			status = 1;
+			continue;
+		}
 		c.dem = &dem;
 		c.valid = 0;
 		for (size_t k = 0; k < (size_t)dem.width * dem.height; k++)

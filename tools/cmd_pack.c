@@ -138,6 +138,10 @@ int cmd_pack(int argc, char **argv)
 		return 1;
 	}
 	dem_report_dropped("pack", in, &dem);
+	if (!dem_pack_fits("pack", in, &dem, po.patch)) {
+		relief_dem_finish(&dem);
+		return 1;
+	}
 	struct progress prog = { .start = now(), .bytes_per_patch = 4.0 * po.patch * po.patch };
 	if (!quiet && isatty(STDERR_FILENO)) {
 		po.progress = progress_bar;
@@ -149,13 +153,12 @@ int cmd_pack(int argc, char **argv)
 	ret = relief_pack_memory(&dem, &po, &img, &size, &st);
 	if (ret == -ENOMEM) {
 		/* The padded square, not the raster, sets the memory (docs/format.md, "Known limits"). */
-		uint32_t levels = relief_layout_levels_for(po.patch, dem.width, dem.height);
-		double side = (double)(po.patch - 1) * ldexp(1.0, (int)levels - 1) + 1;
+		double side, need = dem_pack_bytes(&dem, po.patch, &side);
 		fprintf(stderr,
 		        "relief pack: %s: out of memory: the quadtree is square, so this %u x %u raster is packed in a "
-		        "%.0f x %.0f grid (%.3g G samples; packing holds about 11 bytes per grid sample, see "
-		        "docs/format.md, \"Known limits\")\n",
-		        in, dem.width, dem.height, side, side, side * side / 1e9);
+		        "%.0f x %.0f grid (%.3g G samples), and packing that holds about %.1f GB; see docs/format.md, "
+		        "\"Known limits\"\n",
+		        in, dem.width, dem.height, side, side, side * side / 1e9, need / 1e9);
 		relief_dem_finish(&dem);
 		return 1;
 	}

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cpl_conv.h>
 #include <cpl_error.h>
@@ -319,6 +320,28 @@ void dem_report_dropped(const char *cmd, const char *path, const struct relief_d
 		fprintf(stderr, "relief %s: %s: %llu sample(s) not finite or beyond %g m (one at column %u, row %u) "
 		        "stored as no-data\n", cmd, path, (unsigned long long)d->dropped, RELIEF_MAX_HEIGHT, d->dropped_col,
 		        d->dropped_row);
+}
+
+double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side)
+{
+	uint32_t levels = relief_layout_levels_for(patch, d->width, d->height); /* < 64 */
+	double s = ldexp((double)(patch - 1), (int)levels - 1) + 1;
+	*side = s;
+	return 11.0 * s * s + 9.0 * (double)d->width * d->height;
+}
+
+bool dem_pack_fits(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch)
+{
+	double side, need = dem_pack_bytes(d, patch, &side);
+	long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
+	if (pages <= 0 || page <= 0 || need <= (double)pages * (double)page)
+		return true;
+	fprintf(stderr,
+	        "relief %s: %s: too large to pack here: the quadtree is square, so this %u x %u raster is packed in a "
+	        "%.0f x %.0f grid, and packing that holds about %.1f GB (11 bytes per grid sample, 9 per raster "
+	        "sample) where this machine has %.1f GB; see docs/format.md, \"Known limits\"\n",
+	        cmd, path, d->width, d->height, side, side, need / 1e9, (double)pages * (double)page / 1e9);
+	return false;
 }
 
 int dem_import(const char *path, const struct dem_import_options *o, struct relief_dem *out, char *err, size_t n)

@@ -34,6 +34,14 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
 /* Says on stderr, as "relief CMD: PATH: ...", how many samples the import dropped as no
  * data because they were not heights (relief_dem.dropped), if any. */
 void dem_report_dropped(const char *cmd, const char *path, const struct relief_dem *d);
+/* What packing raster d at `patch` samples a side holds at peak, in bytes: the padded
+ * square grid's arrays (about 11 bytes per grid sample) and the raster's (about 9 per
+ * sample), as measured (docs/format.md, "Known limits"); *side receives the grid's side. */
+double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side);
+/* Says why on stderr ("relief CMD: PATH: ...") and returns false when that is more than
+ * the machine's physical memory, so that packing is refused at once instead of failing
+ * after minutes or being killed when the memory runs out. */
+bool dem_pack_fits(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch);
 /* The same from a raster already open (a GDALDatasetH; the caller keeps and closes it;
  * `path` only names it in messages): size, bands, georeferencing, values, no-data. What
  * dem_import() does after opening, and what the import fuzz target drives directly. */

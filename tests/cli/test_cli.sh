@@ -139,6 +139,13 @@ check pack-raw-wide 1 "$relief" pack "$tmp/odd.f32" "$tmp/x.relief" -t 1 --raw-s
 expect_text pack-raw-wide-named "20000x3 float32 samples need 240000"
 check pack-raw-too-wide 2 "$relief" pack "$tmp/odd.f32" "$tmp/x.relief" -t 1 --raw-size 4194305x3 --raw-type float32 --spacing 30
 expect_text pack-raw-too-wide-named "both in [1, 4194304]"
+# A raster whose padded square cannot fit in this machine's memory is refused at once,
+# naming the grid: 262145 x 2 samples pack in a 262145 x 262145 grid, about 756 GB.
+head -c 2097160 /dev/zero >"$tmp/strip.f32"
+check pack-too-large 1 "$relief" pack "$tmp/strip.f32" "$tmp/x.relief" -t 1 --raw-size 262145x2 --raw-type float32 --spacing 1
+expect_text pack-too-large-named "too large to pack here: the quadtree is square, so this 262145 x 2 raster is packed in a 262145 x 262145 grid"
+check bench-codec-too-large 1 "$relief" bench codec "$tmp/strip.f32" --raw-size 262145x2 --raw-type float32 --spacing 1 --runs 1
+expect_text bench-codec-too-large-named "relief bench codec: $tmp/strip.f32: too large to pack here"
 # Out of memory names the padded square: 20001 x 3 samples pack in a 32769 x 32769 grid,
 # which 1 GB of address space cannot hold. (Not under a sanitizer, whose shadow memory
 # needs more address space than that.)
