@@ -24,8 +24,8 @@
 #define RELIEF_MAGIC "RELIEF\x1a\n"
 /* 2: residual contexts from classes (docs/codec.md); 3: streams skip the padding beyond
  * the valid extent (relief_patch_window()); 4: block errors measured against the finest
- * decoded surface, and block height ranges (patch_error.h). Versions 2 and 3 are still
- * read. */
+ * decoded surface, and block height ranges (patch_error.h); 5: block records for
+ * non-EMPTY patches only, counted in the header. Versions 2 to 4 are still read. */
 #define RELIEF_FORMAT_VERSION 5u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
