@@ -175,6 +175,57 @@ static bool wants_split(float err, float tau, bool was_split)
 	return err > tau || (was_split && err > RELIEF_LOD_MERGE * tau);
 }
 
+/* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit. */
+static bool raw_wish(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
+                     const uint8_t *split_prev, uint32_t l, uint32_t x, uint32_t y)
+{
+	if (l + 1 >= f->layout.levels)
+		return false;
+	uint32_t id = relief_patch_id(l, x, y);
+	struct relief_box box;
+	relief_patch_box(f, o, id, &box);
+	struct relief_patch_record rec;
+	relief_file_record(f, id, &rec);
+	float d = relief_box_distance(&box);
+	float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
+	return wants_split(err, tau, split_prev[id]);
+}
+
+/* shaders/lod_force.comp's twin: whether patch id, of level 1 .. L - 6, is made to split
+ * because beside one of its sides a chain of patches of levels l .. l + 4 along the border
+ * each wants to split (a patch 5 levels finer would be drawn there). */
+static bool forced_split(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
+                         const uint8_t *split_prev, uint32_t id)
+{
+	const uint32_t L = f->layout.levels;
+	if (L < 7 || id == 0 || id >= relief_level_first_id(L - 5))
+		return false;
+	uint32_t l, px, py;
+	relief_patch_coords(&f->layout, id, &l, &px, &py);
+	const int dirs[4][2] = { { 0, -1 }, { 0, 1 }, { -1, 0 }, { 1, 0 } }; /* north, south, west, east */
+	for (int s = 0; s < 4; s++) {
+		int64_t qx = (int64_t)px + dirs[s][0], qy = (int64_t)py + dirs[s][1], n = (int64_t)1 << l;
+		if (qx < 0 || qy < 0 || qx >= n || qy >= n)
+			continue;
+		uint32_t chain = raw_wish(f, o, kappa, tau, split_prev, l, (uint32_t)qx, (uint32_t)qy);
+		for (uint32_t k = 1; k <= 4 && chain; k++) {
+			uint32_t m = 1u << k, next = 0;
+			for (uint32_t i = 0; i < m; i++) {
+				if (!(chain & (1u << (i >> 1))))
+					continue;
+				uint32_t cx = s == 2 ? (uint32_t)qx * m + m - 1 : s == 3 ? (uint32_t)qx * m : (uint32_t)qx * m + i;
+				uint32_t cy = s == 0 ? (uint32_t)qy * m + m - 1 : s == 1 ? (uint32_t)qy * m : (uint32_t)qy * m + i;
+				if (raw_wish(f, o, kappa, tau, split_prev, l + k, cx, cy))
+					next |= 1u << i;
+			}
+			chain = next;
+		}
+		if (chain)
+			return true;
+	}
+	return false;
+}
+
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
                            const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw, uint32_t *want,
                            uint32_t want_cap, uint32_t *n_want)
@@ -205,7 +256,8 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		relief_file_record(f, id, &rec);
 		float d = relief_box_distance(&box);
 		float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
-		bool wish = l + 1 < lay->levels && wants_split(err, tau, split_prev[id]);
+		bool wish = l + 1 < lay->levels &&
+		            (wants_split(err, tau, split_prev[id]) || forced_split(f, &o, kappa, tau, split_prev, id));
 		split_next[id] = wish;
 		if (!(marks & WANTED))
 			continue; /* nor REACHABLE: a drawn patch's ancestors all want to split */

@@ -2,6 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
 // Coarse LOD for one view, one invocation per patch (common/lod.c is the CPU reference).
+// A patch wants to split by its screen-space error (with hysteresis: bit 0 of its split
+// state) or when lod_force.comp, run before for trees of 7 levels or more, set bit 1.
 // A patch is drawn when every ancestor is resident, in the frustum, wants to split and has
 // its children there, while the patch itself is resident, in the frustum, and either does
 // not want to split or lacks children. Each invocation re-derives its ancestors' decisions,
@@ -30,34 +32,7 @@ layout(std430, binding = 18) buffer UseDist { uint use_dist[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
 
-layout(push_constant) uniform Push {
-	mat4 vp;          // camera-relative view-projection
-	ivec2 cell;       // camera's finest sample cell
-	vec2 frac;        // and its fraction
-	vec2 spacing;     // finest spacing, metres
-	float cam_z, kappa, tau;
-	uint frame, count, levels, P, want_cap;
-	float delta_finest; // tolerance of the finest level, metres
-	uint ratio;
-} pc;
-
-void box(uint l, uint px, uint py, uint id, out vec3 bmin, out vec3 bmax)
-{
-	int span = int(pc.P - 1u) << (pc.levels - 1u - l);
-	precise float x0 = (float(int(px) * span - pc.cell.x) - pc.frac.x) * pc.spacing.x;
-	precise float y0 = (float(int(py) * span - pc.cell.y) - pc.frac.y) * pc.spacing.y;
-	precise float w = float(span) * pc.spacing.x, h = float(span) * pc.spacing.y;
-	precise float x1 = x0 + w, y1 = y0 + h;
-	bmin = vec3(x0, -y1, info[id].hmin - pc.cam_z);
-	bmax = vec3(x1, -y0, info[id].hmax - pc.cam_z);
-}
-
-float distance_to(vec3 bmin, vec3 bmax)
-{
-	precise vec3 d = max(max(bmin, -bmax), vec3(0.0));
-	precise float d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-	return sqrt(d2);
-}
+#include "lod_select_common.glsl"
 
 bool culled(vec3 bmin, vec3 bmax)
 {
@@ -80,10 +55,7 @@ bool culled(vec3 bmin, vec3 bmax)
 
 bool wants_split(uint l, uint id, float d)
 {
-	if (l + 1u >= pc.levels)
-		return false;
-	precise float err = d > 0.0 ? info[id].err * pc.kappa / d : 1.0 / 0.0;
-	return err > pc.tau || (split_prev[id] != 0u && err > 0.8 * pc.tau);
+	return wants_split_by(l, id, d, split_prev[id]);
 }
 
 bool child_missing(uint c) { return info[c].skirt >= 0.0 && layer_of[c] < 0; }

@@ -13,6 +13,7 @@
 #include "lod_commands.comp.spv.h"
 #include "lod_borders.comp.spv.h"
 #include "lod_factors.comp.spv.h"
+#include "lod_force.comp.spv.h"
 #include "lod_select.comp.spv.h"
 #include "terrain.frag.spv.h"
 #include "terrain.tesc.spv.h"
@@ -132,6 +133,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_ALL_GRAPHICS, sizeof(struct draw_push),
 	                            &t->draw_layout)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &t->select)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_force_comp_spv), &t->force)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv),
 	                                             &t->commands)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv),
@@ -172,8 +174,9 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[7] = { t->select, t->commands, t->borders, t->factors, t->draw_fill, t->draw_cull, t->draw_wire };
-	for (int i = 0; i < 7; i++)
+	VkPipeline pipes[8] = { t->select, t->force, t->commands, t->borders, t->factors, t->draw_fill, t->draw_cull,
+		                t->draw_wire };
+	for (int i = 0; i < 8; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
 	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };

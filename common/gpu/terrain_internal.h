@@ -116,7 +116,8 @@ struct relief_terrain {
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
-	VkPipeline select, commands, borders, factors, draw_fill, draw_cull, draw_wire;
+	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
+	VkPipeline select, force, commands, borders, factors, draw_fill, draw_cull, draw_wire;
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
 	 * at most (every layer drawn, each with four curtains: a loose bound) */
 	uint32_t count, blocks, per_patch, per_draw, max_patches, max_quads, max_draws;

@@ -242,14 +242,22 @@ static uint32_t max_level_jump(const struct scene *s, const uint32_t *ids, uint3
  * run when the test was written: with the old finer_across() views 57 (tau 16), 72 (tau 8)
  * and 93 (tau 16) show one hole each; the 2049 x 2049 sweep (jumps of 4) 7 holes in 400
  * frames, none now. */
-static void test_deep_level_jumps(void **state)
+/* N x N samples 30 m apart: a flat sea west of the middle column, rough land east of it (a
+ * 5 m per sample rise plus up to 200 m of per-sample noise, ramped in over 16 samples). */
+static struct relief_dem coast_dem(int N)
 {
-	enum { N = 1025 };
 	struct relief_dem dem = grid_dem(N);
 	for (int y = 0; y < N; y++)
 		for (int x = N / 2 + 1; x < N; x++)
 			dem.heights[(size_t)y * N + x] = (float)(5.0 * (x - N / 2) + (hash32((uint32_t)(y * N + x)) % 4000) * 0.05 *
 			                                         fmin(1.0, (x - N / 2) / 16.0));
+	return dem;
+}
+
+static void test_deep_level_jumps(void **state)
+{
+	enum { N = 1025 };
+	struct relief_dem dem = coast_dem(N);
 	struct bound_scene b;
 	bound_open_dem_patch(&b, vk, &dem, 65);
 	relief_dem_finish(&dem);
@@ -287,6 +295,75 @@ static void test_deep_level_jumps(void **state)
 	}
 	free(ids);
 	bound_close(&b);
+}
+
+/* Jumps of 5 levels and more: the same coast at 4097 x 4097 samples with 65-sample patches
+ * (7 levels; the sea's level-1 patches beside land drawn at level 6). A border block edge
+ * takes at most 16 segments, so a patch 5 levels finer across it has block corners between
+ * its vertices: T-junctions. The selection's pre-pass (lod_force.comp) makes such a coarse
+ * patch split. Five steep views from a sweep of 100 along the coast (300 frames at tau =
+ * 4, 8, 16, looking 29-90 degrees down so that the terrain fills the frame and any
+ * background pixel is a hole; skirts off): no background pixel and no two patches more
+ * than 4 levels apart side by side, and the GPU's selection equals the CPU reference's
+ * (relief_lod_select()) on each. Negative control, run when the test was written: without
+ * the pre-pass each of the five frames shows one background pixel and draws a jump of 5
+ * (15 of the sweep's 300 frames). */
+static void test_level_jumps_of_five(void **state)
+{
+	enum { N = 4097 };
+	struct relief_dem dem = coast_dem(N);
+	struct scene s;
+	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, BW, BH, 0);
+	relief_dem_finish(&dem);
+	assert_int_equal(s.f->hdr.levels, 7);
+	const uint32_t n = s.f->hdr.patch_count;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
+	float *depth = malloc(sizeof(float) * BW * BH);
+	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
+	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
+	const uint32_t sweep[] = { 9, 12, 83, 88, 95 };
+	for (size_t i = 0; i < sizeof(sweep) / sizeof(sweep[0]); i++) {
+		/* The sweep's camera: 800-4,800 m over the coast, looking down within 1 km. */
+		uint32_t r = hash32(5000u + sweep[i]);
+		double ey = len * (0.1 + 0.8 * (r % 1000) / 1000.0), ez = 800 + (hash32(r) % 4000);
+		double ex = cx + ((int)(hash32(r + 1) % 2000) - 1000);
+		double dx = (int)(hash32(r + 2) % 2000) - 1000, dy = (int)(hash32(r + 3) % 2000) - 1000;
+		struct pose p = { { ex, ey, ez }, { ex + dx, ey + dy, 0 } };
+		struct relief_view v = pose_view(&p);
+		v.tau = 4;
+		struct relief_terrain_stats st;
+		render_with(&s, &v, &bare, depth, &st);
+		uint32_t holes = 0;
+		for (size_t k = 0; k < (size_t)BW * BH; k++)
+			holes += !(depth[k] > 0.0f);
+		uint32_t nd;
+		drawn_levels(&s, gpu, &nd);
+		uint32_t jump = max_level_jump(&s, gpu, nd);
+		/* A fresh view (nothing split, like prev[]) against the CPU reference. */
+		relief_terrain_view_destroy(s.view);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 200 + i, &bare, &st), 0);
+		for (uint32_t id = 0; id < n; id++)
+			resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
+		uint32_t ng = view_drawn(s.view, gpu, n);
+		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
+		uint32_t k = 0;
+		for (uint32_t id = 0; id < n; id++)
+			if (draw[id])
+				cpu[k++] = id;
+		qsort(gpu, ng, 4, cmp_u32);
+		print_message("sweep view %u (tau %g): %u patches, largest level jump %u, %u background pixels; GPU %u "
+		              "patches, CPU %u\n", sweep[i], v.tau, nd, jump, holes, ng, nc);
+		assert_int_equal(holes, 0);
+		assert_true(jump >= 3 && jump <= 4);
+		assert_int_equal(ng, nc);
+		assert_memory_equal(gpu, cpu, 4 * nc);
+		assert_int_equal(st.requests, n_want);
+	}
+	free(resident); free(prev); free(next); free(draw); free(want); free(gpu); free(cpu); free(depth);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
 }
 
 /* Patch corners and T-junctions between levels, looking down at patch corners of Puget
@@ -679,6 +756,7 @@ int main(void)
 		cmocka_unit_test(test_edge_curtain),
 		cmocka_unit_test(test_sealed_corners),
 		cmocka_unit_test(test_deep_level_jumps),
+		cmocka_unit_test(test_level_jumps_of_five),
 		cmocka_unit_test(test_ridge_above_measuring_points),
 		cmocka_unit_test(test_no_lone_centre_fan),
 		cmocka_unit_test(test_fan_rule_spares_single_segment_edges),
