@@ -148,6 +148,29 @@ uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n)
 	return view_levels(s, s->view, ids, n, NULL);
 }
 
+uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const struct relief_terrain_stats *st)
+{
+	const uint32_t n = s->f->hdr.patch_count;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
+	for (uint32_t id = 0; id < n; id++)
+		resident[id] = relief_patch_cache_state(s->cache, id) == RELIEF_PATCH_RESIDENT;
+	uint32_t ng = view_drawn(s->view, gpu, n);
+	uint32_t nc = relief_lod_select(s->f, v, resident, prev, next, draw, want, n, &n_want);
+	uint32_t k = 0;
+	for (uint32_t id = 0; id < n; id++)
+		if (draw[id])
+			cpu[k++] = id;
+	qsort(gpu, ng, 4, cmp_u32);
+	print_message("  GPU %u patches, CPU %u; %u requests, CPU %u\n", ng, nc, st->requests, n_want);
+	assert_int_equal(ng, nc);
+	assert_memory_equal(gpu, cpu, 4 * nc);
+	assert_int_equal(st->requests, n_want);
+	assert_int_equal(st->patches, ng);
+	free(resident); free(prev); free(next); free(draw); free(want); free(gpu); free(cpu);
+	return ng;
+}
+
 /* The finest level and the two depth images of a bound scene whose scene is open. */
 static void bound_buffers(struct bound_scene *b)
 {

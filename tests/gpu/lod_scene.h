@@ -70,6 +70,12 @@ uint32_t view_levels(const struct scene *s, struct relief_terrain_view *tv, uint
 /* The scene's own view's last frame (view_levels()). */
 uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n);
 
+/* The scene's view's last frame, drawn by a view with nothing split before (a new one),
+ * against the CPU reference (relief_lod_select(), nothing split, the cache's resident
+ * patches): the same patches and as many requests (st: that frame's stats). Returns the
+ * patch count. */
+uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const struct relief_terrain_stats *st);
+
 struct pose {
 	double eye[3], at[3];
 };

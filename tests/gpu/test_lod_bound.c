@@ -316,9 +316,7 @@ static void test_level_jumps_of_five(void **state)
 	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, BW, BH, 0);
 	relief_dem_finish(&dem);
 	assert_int_equal(s.f->hdr.levels, 7);
-	const uint32_t n = s.f->hdr.patch_count;
-	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
-	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
+	uint32_t *ids = malloc(4 * s.f->hdr.patch_count);
 	float *depth = malloc(sizeof(float) * BW * BH);
 	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
 	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
@@ -338,30 +336,20 @@ static void test_level_jumps_of_five(void **state)
 		for (size_t k = 0; k < (size_t)BW * BH; k++)
 			holes += !(depth[k] > 0.0f);
 		uint32_t nd;
-		drawn_levels(&s, gpu, &nd);
-		uint32_t jump = max_level_jump(&s, gpu, nd);
-		/* A fresh view (nothing split, like prev[]) against the CPU reference. */
+		drawn_levels(&s, ids, &nd);
+		uint32_t jump = max_level_jump(&s, ids, nd);
+		print_message("sweep view %u (tau %g): %u patches, largest level jump %u, %u background pixels\n",
+		              sweep[i], v.tau, nd, jump, holes);
+		assert_int_equal(holes, 0);
+		assert_true(jump >= 3 && jump <= 4);
+		/* A fresh view (nothing split) against the CPU reference. */
 		relief_terrain_view_destroy(s.view);
 		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
 		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 200 + i, &bare, &st), 0);
-		for (uint32_t id = 0; id < n; id++)
-			resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
-		uint32_t ng = view_drawn(s.view, gpu, n);
-		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
-		uint32_t k = 0;
-		for (uint32_t id = 0; id < n; id++)
-			if (draw[id])
-				cpu[k++] = id;
-		qsort(gpu, ng, 4, cmp_u32);
-		print_message("sweep view %u (tau %g): %u patches, largest level jump %u, %u background pixels; GPU %u "
-		              "patches, CPU %u\n", sweep[i], v.tau, nd, jump, holes, ng, nc);
-		assert_int_equal(holes, 0);
-		assert_true(jump >= 3 && jump <= 4);
-		assert_int_equal(ng, nc);
-		assert_memory_equal(gpu, cpu, 4 * nc);
-		assert_int_equal(st.requests, n_want);
+		gpu_matches_cpu(&s, &v, &st);
 	}
-	free(resident); free(prev); free(next); free(draw); free(want); free(gpu); free(cpu); free(depth);
+	free(ids);
+	free(depth);
 	scene_close(&s);
 	gpu_test_assert_clean(vk);
 }
