@@ -252,15 +252,9 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	struct relief_vk *vk = c->vk;
 	const struct relief_layout *lay = &c->file->layout;
 	/* The batch's own command buffer, or the capture's (tests, relief_vk_capture_begin()) */
-	VkCommandBuffer cmd = vk->capture ? vk->capture : b->cmd;
-	int ret = 0;
-	VkCommandBufferBeginInfo bi = {
-		.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
-		.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
-	};
-	if (!vk->capture &&
-	    ((ret = relief_vk_check(vk, vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer")) < 0 ||
-	     (ret = relief_vk_check(vk, vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer")) < 0))
+	VkCommandBuffer cmd;
+	int ret = relief_vk_cmd_reuse(vk, b->cmd, &cmd);
+	if (ret < 0)
 		return ret;
 	uint32_t q = (uint32_t)(b - c->batches) * 3;
 	if (c->timer) {
@@ -335,16 +329,8 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 2);
 	if ((ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &b->fence), "vkResetFences")) < 0)
 		return ret;
-	if (vk->capture) {
-		if ((ret = relief_vk_cmd_submit(vk, cmd, b->fence)) < 0)
-			return ret;
-	} else {
-		if ((ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer")) < 0)
-			return ret;
-		VkSubmitInfo si = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd };
-		if ((ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &si, b->fence), "vkQueueSubmit")) < 0)
-			return ret;
-	}
+	if ((ret = relief_vk_cmd_submit_kept(vk, cmd, b->fence)) < 0)
+		return ret;
 	b->busy = true;
 	b->seq = c->next_seq++;
 	c->stats.batches++;

@@ -218,6 +218,11 @@ int relief_vk_cmd_record(struct relief_vk *vk, VkCommandBuffer *cmd);
  * The capture's command buffer is not submitted: its fence is kept (-ENOSPC beyond
  * RELIEF_VK_CAPTURE_FENCES). */
 int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence);
+/* A command buffer the caller keeps and records again (a patch cache batch's, `own`),
+ * reset and begun, or the capture's while there is one: *cmd is the one to record into. */
+int relief_vk_cmd_reuse(struct relief_vk *vk, VkCommandBuffer own, VkCommandBuffer *cmd);
+/* relief_vk_cmd_submit() without freeing `cmd` on failure: for relief_vk_cmd_reuse()'s. */
+int relief_vk_cmd_submit_kept(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence);
 /* Frees a command buffer of relief_vk_cmd_begin() or _record(); not the capture's. */
 void relief_vk_cmd_free(struct relief_vk *vk, VkCommandBuffer cmd);
 /* Tests: between relief_vk_capture_begin() and relief_vk_capture_end(), frames and patch

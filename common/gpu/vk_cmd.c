@@ -38,13 +38,28 @@ int relief_vk_cmd_record(struct relief_vk *vk, VkCommandBuffer *cmd)
 	return relief_vk_cmd_begin(vk, cmd);
 }
 
+int relief_vk_cmd_reuse(struct relief_vk *vk, VkCommandBuffer own, VkCommandBuffer *cmd)
+{
+	if (vk->capture) {
+		*cmd = vk->capture;
+		return 0;
+	}
+	*cmd = own;
+	VkCommandBufferBeginInfo begin = {
+		.sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+		.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
+	};
+	int ret = relief_vk_check(vk, vkResetCommandBuffer(own, 0), "vkResetCommandBuffer");
+	return ret < 0 ? ret : relief_vk_check(vk, vkBeginCommandBuffer(own, &begin), "vkBeginCommandBuffer");
+}
+
 void relief_vk_cmd_free(struct relief_vk *vk, VkCommandBuffer cmd)
 {
 	if (cmd && cmd != vk->capture)
 		vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
 }
 
-int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence)
+int relief_vk_cmd_submit_kept(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence)
 {
 	if (cmd == vk->capture) {
 		if (fence && vk->capture_n_fences == RELIEF_VK_CAPTURE_FENCES)
@@ -61,8 +76,14 @@ int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fenc
 	};
 	if (ret == 0)
 		ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &submit, fence), "vkQueueSubmit");
+	return ret;
+}
+
+int relief_vk_cmd_submit(struct relief_vk *vk, VkCommandBuffer cmd, VkFence fence)
+{
+	int ret = relief_vk_cmd_submit_kept(vk, cmd, fence);
 	if (ret < 0)
-		vkFreeCommandBuffers(vk->device, vk->cmd_pool, 1, &cmd);
+		relief_vk_cmd_free(vk, cmd); /* not the capture's */
 	return ret;
 }
 
@@ -100,10 +121,7 @@ int relief_vk_capture_end(struct relief_vk *vk)
 	if (!cmd)
 		return -EINVAL;
 	vk->capture = VK_NULL_HANDLE;
-	int ret = relief_vk_check(vk, vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
-	VkSubmitInfo submit = { .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO, .commandBufferCount = 1, .pCommandBuffers = &cmd };
-	if (ret == 0)
-		ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 1, &submit, VK_NULL_HANDLE), "vkQueueSubmit");
+	int ret = relief_vk_cmd_submit_kept(vk, cmd, VK_NULL_HANDLE);
 	/* An empty submission signals its fence once everything submitted before is done. */
 	for (uint32_t i = 0; i < vk->capture_n_fences && ret == 0; i++)
 		ret = relief_vk_check(vk, vkQueueSubmit(vk->queue, 0, NULL, vk->capture_fences[i]), "vkQueueSubmit");
