@@ -51,10 +51,7 @@ void main()
 			for (uint i = 0u; i < m; i++) {
 				if ((chain & (1u << (i >> 1u))) == 0u)
 					continue;
-				ivec2 c = s == 0u ? ivec2(q.x * int(m) + int(i), q.y * int(m) + int(m) - 1)
-				        : s == 1u ? ivec2(q.x * int(m) + int(i), q.y * int(m))
-				        : s == 2u ? ivec2(q.x * int(m) + int(m) - 1, q.y * int(m) + int(i))
-				                  : ivec2(q.x * int(m), q.y * int(m) + int(i));
+				ivec2 c = facing_cell(q, int(m), s, int(i));
 				if (wants(l + k, uint(c.x), uint(c.y)))
 					next |= 1u << i;
 			}

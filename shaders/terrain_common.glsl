@@ -39,6 +39,15 @@ Instance instance_unpack(uvec4 p[4])
 
 uint first_id(uint l) { return ((1u << (2u * l)) - 1u) / 3u; }
 
+// In the subtree of patch q, m patches a side a level (m = 2^k, k levels finer), the a-th
+// along q's border that faces the patch q lies on `side` of (0 north, 1 south, 2 west,
+// 3 east): q's last row, first row, last column or first column.
+ivec2 facing_cell(ivec2 q, int m, uint side, int a)
+{
+	return side == 0u ? ivec2(q.x * m + a, q.y * m + m - 1) : side == 1u ? ivec2(q.x * m + a, q.y * m)
+	     : side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : ivec2(q.x * m, q.y * m + a);
+}
+
 // A curtain record (lod_select.comp): drawn patch slot in bits 0-29, its side on the
 // terrain's outer edge (0 north, 1 south, 2 west, 3 east) in bits 30-31.
 const uint CURTAIN_SLOT_MASK = 0x3fffffffu;

@@ -25,8 +25,7 @@ uint finer_across(Instance it, ivec2 bl, uint side)
 		// cells per side at level l; those along bl: a0 .. a0 + n - 1
 		int m = 1 << j, a0 = along * m / b, n = max(m / b, 1);
 		for (int a = a0; a < a0 + n; a++) {
-			ivec2 c = side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : side == 3u ? ivec2(q.x * m, q.y * m + a)
-			        : side == 0u ? ivec2(q.x * m + a, q.y * m + m - 1) : ivec2(q.x * m + a, q.y * m);
+			ivec2 c = facing_cell(q, m, side, a);
 			if (drawn[first_id(l) + uint(c.y) * (1u << l) + uint(c.x)] != 0u)
 				found = j;
 		}
