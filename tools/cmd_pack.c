@@ -153,12 +153,7 @@ int cmd_pack(int argc, char **argv)
 	ret = relief_pack_memory(&dem, &po, &img, &size, &st);
 	if (ret == -ENOMEM) {
 		/* The padded square, not the raster, sets the memory (docs/format.md, "Known limits"). */
-		double side, need = dem_pack_bytes(&dem, po.patch, &side);
-		fprintf(stderr,
-		        "relief pack: %s: out of memory: the quadtree is square, so this %u x %u raster is packed in a "
-		        "%.0f x %.0f grid (%.3g G samples), and packing that holds about %.1f GB; see docs/format.md, "
-		        "\"Known limits\"\n",
-		        in, dem.width, dem.height, side, side, side * side / 1e9, need / 1e9);
+		dem_pack_explain("pack", in, &dem, po.patch, "out of memory", 0);
 		relief_dem_finish(&dem);
 		return 1;
 	}

@@ -330,17 +330,27 @@ double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side)
 	return 11.0 * s * s + 9.0 * (double)d->width * d->height;
 }
 
+void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch, const char *why,
+                      double have)
+{
+	double side, need = dem_pack_bytes(d, patch, &side);
+	char where[64] = "";
+	if (have > 0)
+		snprintf(where, sizeof(where), " where this machine has %.1f GB", have / 1e9);
+	fprintf(stderr,
+	        "relief %s: %s: %s: the quadtree is square, so this %u x %u raster is packed in a %.0f x %.0f grid "
+	        "(%.3g G samples), and packing that holds about %.1f GB (11 bytes per grid sample, 9 per raster "
+	        "sample)%s; see docs/format.md, \"Known limits\"\n",
+	        cmd, path, why, d->width, d->height, side, side, side * side / 1e9, need / 1e9, where);
+}
+
 bool dem_pack_fits(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch)
 {
 	double side, need = dem_pack_bytes(d, patch, &side);
 	long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
 	if (pages <= 0 || page <= 0 || need <= (double)pages * (double)page)
 		return true;
-	fprintf(stderr,
-	        "relief %s: %s: too large to pack here: the quadtree is square, so this %u x %u raster is packed in a "
-	        "%.0f x %.0f grid, and packing that holds about %.1f GB (11 bytes per grid sample, 9 per raster "
-	        "sample) where this machine has %.1f GB; see docs/format.md, \"Known limits\"\n",
-	        cmd, path, d->width, d->height, side, side, need / 1e9, (double)pages * (double)page / 1e9);
+	dem_pack_explain(cmd, path, d, patch, "too large to pack here", (double)pages * (double)page);
 	return false;
 }
 

@@ -38,6 +38,10 @@ void dem_report_dropped(const char *cmd, const char *path, const struct relief_d
  * square grid's arrays (about 11 bytes per grid sample) and the raster's (about 9 per
  * sample), as measured (docs/format.md, "Known limits"); *side receives the grid's side. */
 double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side);
+/* Says on stderr "relief CMD: PATH: WHY: ..." with the padded grid and that estimate, and
+ * the machine's memory `have` (bytes) when it is above 0. */
+void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch, const char *why,
+                      double have);
 /* Says why on stderr ("relief CMD: PATH: ...") and returns false when that is more than
  * the machine's physical memory, so that packing is refused at once instead of failing
  * after minutes or being killed when the memory runs out. */
