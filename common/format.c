@@ -45,7 +45,7 @@ size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
  * EMPTY patch of version 5 has none: it reads as zero bytes, what earlier packers wrote. */
 static const uint8_t *patch_block_bytes(const struct relief_file *f, uint32_t id)
 {
-	static const uint8_t none[16 * 16 * 5];
+	static const uint8_t none[RELIEF_MAX_BLOCKS * 5]; /* errors and range bytes at the largest patch */
 	uint32_t slot = f->block_slot[id];
 	if (slot == UINT32_MAX)
 		return none;

@@ -2,7 +2,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
 // Forced splits, a pre-pass of the selection for trees of 7 levels or more (common/lod.c,
-// relief_lod_forced(), is the CPU reference). A border block edge can take every block
+// forced_split(), is the CPU reference). A border block edge can take every block
 // corner of a patch up to 4 levels finer drawn across it (16 segments, terrain_seal.glsl);
 // a patch 5 or more levels finer leaves T-junctions that the rasteriser opens (docs/lod.md,
 // known issues). So a patch P of level l <= L - 6 is made to split when, beside one of its
