@@ -16,6 +16,10 @@
 // range over them bounds the surface there. If no drawn block holds the eye (the patch
 // under it is outside the frustum), the CPU's conservative decision stands (cpu_cull).
 // The record count goes to draw_split[0] (culled pipeline) or [1] (back faces drawn).
+//
+// Run again after lod_factors.comp (phase 1), it cuts the clipped list (the quads that
+// pipeline draws with back faces kept, docs/lod.md "Back faces") into records of its own,
+// after the first max_draws, and counts them in draw_split[2].
 layout(local_size_x = 64) in;
 
 struct DrawCmd { uint vertex_count, instance_count, first_vertex, first_instance; };
@@ -23,7 +27,7 @@ layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) buffer Counters {
 	uint drawn; uint draws; uint wants; uint curtains;
 	uvec4 factor_groups, border_groups;
-	uint face_culled; uint found; float near_high; uint pad;
+	uint face_culled; uint found; float near_high; uint draw_culled;
 	uvec4 draw_split;
 } counters;
 layout(std430, binding = 8) writeonly buffer Cmds { DrawCmd cmds[]; };
@@ -37,7 +41,10 @@ layout(push_constant) uniform Push {
 	uint max_draws;
 	uint cpu_cull;  // the CPU's decision (relief_surface_height_bound()), used when no block holds the eye
 	float margin;   // metres above the bound for culling (FACE_CULL_MARGIN)
+	uint gpu_decides; // this decision splits the draws; else cpu_cull is the one drawn with
+	uint phase;     // 0: the frame's records and the decision; 1: the clipped list's records
 } pc;
+layout(std430, binding = 19) readonly buffer Clipped { uint clipped_count; uint clipped[]; };
 
 shared uint s_high; // largest block height near the eye, as an ordered key (height_key)
 shared uint s_found;
@@ -76,16 +83,29 @@ void blocks_near_eye(Instance it, vec2 eye)
 		}
 }
 
-void main()
+// Records at cmds[at ..] of `total` quads, per_draw each; returns how many.
+uint write_records(uint at, uint total)
 {
-	uint total = counters.drawn * pc.per_patch + counters.curtains * pc.blocks;
 	uint draws = min((total + pc.per_draw - 1u) / pc.per_draw, pc.max_draws);
 	for (uint g = gl_GlobalInvocationID.x; g < draws; g += gl_WorkGroupSize.x) {
 		uint first = g * pc.per_draw;
 		// The first quad goes in first_vertex (4 per quad), not first_instance: a non-zero
 		// first_instance needs the optional drawIndirectFirstInstance feature.
-		cmds[g] = DrawCmd(4u, min(pc.per_draw, total - first), 4u * first, 0u);
+		cmds[at + g] = DrawCmd(4u, min(pc.per_draw, total - first), 4u * first, 0u);
 	}
+	return draws;
+}
+
+void main()
+{
+	if (pc.phase == 1u) {
+		uint draws = write_records(pc.max_draws, clipped_count);
+		if (gl_LocalInvocationIndex == 0u)
+			counters.draw_split.zw = uvec2(draws, clipped_count);
+		return;
+	}
+	uint total = counters.drawn * pc.per_patch + counters.curtains * pc.blocks;
+	uint draws = write_records(0u, total);
 	if (gl_LocalInvocationIndex == 0u) {
 		s_high = 0u;
 		s_found = 0u;
@@ -101,6 +121,7 @@ void main()
 		counters.face_culled = cull ? 1u : 0u;
 		counters.found = s_found;
 		counters.near_high = key_height(s_high);
+		counters.draw_culled = (pc.gpu_decides != 0u ? cull : pc.cpu_cull != 0u) ? 1u : 0u;
 		counters.draw_split = uvec4(cull ? draws : 0u, cull ? 0u : draws, 0u, 0u);
 		counters.factor_groups = uvec4((total + 63u) / 64u, 1u, 1u, 0u);
 		counters.border_groups = uvec4((counters.drawn * (4u * pc.blocks + 4u) + 63u) / 64u, 1u, 1u, 0u);

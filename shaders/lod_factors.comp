@@ -53,6 +53,26 @@ bool block_unseen(Instance it, vec2 lo, vec2 range)
 	return outside != 0u;
 }
 
+// Whether every point of the box of the block at lo, between heights range, is strictly
+// inside the draw camera's clip volume, with 0.1 % of w to spare for rounding as above,
+// and 0.1 % of the distance before the far plane (draw_eye.w; reversed depth nears 0
+// there); and so is everything the block draws, unless a seal or a curtain reaches
+// beyond its box. The rasteriser clips nothing of such a block.
+bool block_inside(Instance it, vec2 lo, vec2 range)
+{
+	mat4 m = draw_vp;
+	vec4 c0 = m * vec4(pos_of(it, ivec2(lo), range.x), 1.0);
+	float side = float(int(BLOCK_CELLS) * it.scale);
+	vec4 ex = m[0] * (side * it.spacing.x), ey = m[1] * (-side * it.spacing.y), ez = m[2] * (range.y - range.x);
+	bool inside = true;
+	for (int c = 0; c < 8; c++) {
+		vec4 p = c0 + ((c & 1) != 0 ? ex : vec4(0.0)) + ((c & 2) != 0 ? ey : vec4(0.0)) + ((c & 4) != 0 ? ez : vec4(0.0));
+		float w = 0.999 * p.w;
+		inside = inside && p.w > 0.0 && abs(p.x) < w && abs(p.y) < w && p.z > draw_eye.w && p.z < w;
+	}
+	return inside;
+}
+
 // Whether block bl of a layer has a valid sample. One without shows nothing: the fragment
 // shader discards every fragment whose nearest sample is no-data, and every point of the
 // block, its curtain quad's too, is nearest to one of the block's own samples.
@@ -64,9 +84,12 @@ bool block_has_data(int layer, ivec2 bl)
 
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
 // v = 1 south) and inner; all zero discards the quad. `seal`: its seal record; `morph`:
-// the morph bytes of the outer edges (x) and of the interior (y), packed as in factors[].
-void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal, out uvec2 morph)
+// the morph bytes of the outer edges (x) and of the interior (y), packed as in factors[];
+// `inside`: the rasteriser clips none of its triangles (block_inside()).
+void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal, out uvec2 morph,
+                  out bool inside)
 {
+	inside = false;
 	seal = uvec4(0u);
 	morph = uvec2(0xffffffffu, MORPH_FULL);
 	vec2 in_s[4];
@@ -122,6 +145,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		// The block's corners, edge middles and centre in clip space at its measuring height,
 		// 3 x 3 in raster order: where its interior is measured, and its edges at the height
 		// both blocks of the edge share.
+		inside = (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u && block_inside(it, lo, range);
 		vec4 pt[9];
 		const float half_block = float(BLOCK_CELLS / 2u);
 		if (errors)
@@ -171,6 +195,8 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 
 layout(std430, binding = 13) writeonly buffer Factors { uvec4 factors[]; };
 layout(std430, binding = 16) writeonly buffer Seals { uvec4 seals[]; };
+// Quads drawn with back faces kept in a frame that culls them (docs/lod.md, "Back faces").
+layout(std430, binding = 19) buffer Clipped { uint clipped_count; uint clipped[]; };
 
 void main()
 {
@@ -183,9 +209,16 @@ void main()
 	vec2 i;
 	uvec4 seal;
 	uvec2 m;
-	quad_factors(slot, inst[slot], k, o, i, seal, m);
+	bool inside;
+	quad_factors(slot, inst[slot], k, o, i, seal, m, inside);
 	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);
-	factors[q] = uvec4(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u) | (m.y << 16u), m.x, 0u);
+	// A drawn quad that the rasteriser may clip goes to the clipped list when back faces
+	// are culled: the culling pipeline drops it (w = 1) and the other draws it.
+	bool listed = counters.draw_culled != 0u && ob.x != 0u && !inside;
+	if (listed)
+		clipped[atomicAdd(clipped_count, 1u)] = q;
+	factors[q] = uvec4(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u) | (m.y << 16u), m.x,
+	                   listed ? 1u : 0u);
 }

@@ -2,12 +2,18 @@
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
 layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
-layout(std430, binding = 5) readonly buffer Counters { uint drawn_count; uint draws; uint wants; uint curtains; } counters;
+layout(std430, binding = 5) readonly buffer Counters {
+	uint drawn_count; uint draws; uint wants; uint curtains;
+	uvec4 factor_groups, border_groups;
+	uint face_culled; uint found; float near_high;
+	uint draw_culled; // back faces culled in this frame's draws (lod_commands.comp)
+} counters;
 layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame
 layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
 // The view-projection the picture is drawn with; equal to pc.vp unless the level of detail
 // was chosen for another camera (relief_draw_options.lod_view). pc.vp stays the LOD's.
-// draw_eye: the drawing camera's eye (lod_commands.comp, back faces).
+// draw_eye: the drawing camera's eye (lod_commands.comp, back faces); w: the clip-space z
+// 0.1 % nearer than the far plane (lod_factors.comp, block_inside()).
 layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; vec4 draw_eye; };
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 10, r32ui) uniform readonly uimage2DArray normals; // packSnorm4x8, see patch_normals.comp
@@ -22,7 +28,8 @@ layout(push_constant) uniform DrawPush {
 	float tau;        // pixels
 	float cam_z;      // metres
 	// per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no
-	// skirts; bit 4: no block culling; bit 5: morphing; bit 6: blocks without data drawn
+	// skirts; bit 4: no block culling; bit 5: morphing; bit 6: blocks without data drawn;
+	// bit 7: the clipped list's quads dropped; bit 8: quads taken from the clipped list
 	uint P, blocks, per_patch, mode;
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
@@ -37,6 +44,8 @@ const uint MODE_NO_SKIRTS = 8u; // tests: leave every crack open
 const uint MODE_NO_BLOCK_CULL = 16u; // tests: tessellate unseen blocks too (lod_factors.comp)
 const uint MODE_MORPH = 32u; // the view geomorphs level changes (relief_view.morph, terrain_factors.glsl)
 const uint MODE_KEEP_EMPTY_BLOCKS = 64u; // tests: tessellate blocks without a valid sample too
+const uint MODE_SKIP_CLIPPED = 128u; // the culling pipeline's draw: the clipped list draws those quads
+const uint MODE_CLIPPED_LIST = 256u; // the clipped list's draw (back faces kept)
 
 // Camera-relative position of the patch's sample m (x east, y north, z up) at height h
 // metres. Integer finest-grid indices first, one rounding to float after: every patch that

@@ -198,11 +198,11 @@ int cmd_snap(int argc, char **argv)
 	struct relief_patch_cache_stats cs;
 	relief_patch_cache_stats(g.cache, &cs);
 	printf("relief snap: wrote %s (%ux%u), tau %g px: %u patches in %u draws, %llu triangles, GPU %.2f ms "
-	       "(LOD compute %.2f ms, of which selection %.2f ms), back faces %s, %u frames to converge, %llu patches "
-	       "decoded, %u requests left\n",
+	       "(LOD compute %.2f ms, of which selection %.2f ms), back faces %s (%u quads the rasteriser may clip "
+	       "kept them), %u frames to converge, %llu patches decoded, %u requests left\n",
 	       output, width, height, tau, st.patches, st.draws, (unsigned long long)st.triangles, st.gpu_ns / 1e6,
 	       st.lod_ns / 1e6, st.select_ns / 1e6, st.face_culled ? "culled" : "drawn (the camera may be below the surface)",
-	       frames, (unsigned long long)cs.decoded, st.requests);
+	       st.clipped_quads, frames, (unsigned long long)cs.decoded, st.requests);
 	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;
 out:
 	relief_terrain_view_destroy(tv);

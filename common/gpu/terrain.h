@@ -33,6 +33,9 @@ struct relief_terrain_stats {
 	 * around it, as relief_drawn_height_bound(); NaN when no drawn block holds the eye or
 	 * the CPU decided (relief_surface_height_bound()) */
 	float cull_height;
+	/* With back faces culled: the quads drawn with them kept because the rasteriser may
+	 * clip them (their box is not well inside the clip volume; docs/lod.md, "Back faces") */
+	uint32_t clipped_quads;
 };
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,

@@ -16,18 +16,20 @@ static int want_cmp(const void *a, const void *b)
 	return x < y ? -1 : x > y;
 }
 
-/* Records the frame's draw records with `pipe`, as many as the count at `count_at` in the
- * view's counters (all of them where vkCmdDrawIndirectCount is missing: unused records
- * hold zero instances). */
+/* Records draw records with `pipe` in mode `mode`: the frame's quads' (list 0) or the
+ * clipped list's (1), as many as the count at `count_at` in the view's counters (all of
+ * them where vkCmdDrawIndirectCount is missing: unused records hold zero instances). */
 static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd, VkPipeline pipe,
-                         const struct draw_push *dp, VkDeviceSize count_at)
+                         struct draw_push *dp, uint32_t mode, int list, VkDeviceSize count_at)
 {
+	VkDeviceSize at = 16 * (VkDeviceSize)t->max_draws * (VkDeviceSize)list;
+	dp->mode = mode;
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
 	vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(*dp), dp);
 	if (t->vk->has.draw_indirect_count)
-		vkCmdDrawIndirectCount(cmd, v->cmds.buffer, 0, v->counters.buffer, count_at, t->max_draws, 16);
+		vkCmdDrawIndirectCount(cmd, v->cmds.buffer, at, v->counters.buffer, count_at, t->max_draws, 16);
 	else
-		vkCmdDrawIndirect(cmd, v->cmds.buffer, 0, t->max_draws, 16);
+		vkCmdDrawIndirect(cmd, v->cmds.buffer, at, t->max_draws, 16);
 }
 
 int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
@@ -77,7 +79,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	camera.eye[0] = (float)(view->eye.x - lod->eye.x);
 	camera.eye[1] = (float)(view->eye.y - lod->eye.y);
 	camera.eye[2] = (float)view->eye.z;
-	camera.eye[3] = 0.0f;
+	/* z_clip = n (f - d) / (f - n) at distance d: at d = 0.999 f */
+	camera.eye[3] = (float)(0.001 * view->znear * view->zfar / (view->zfar - view->znear));
 	struct draw_push dp = {
 		.viewport = { (float)lod->width, (float)lod->height },
 		.tau = (float)lod->tau,
@@ -101,7 +104,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	                      view->eye.z > relief_surface_height_bound(f, view->eye.x, view->eye.y) + FACE_CULL_MARGIN;
 	const bool gpu_cull = !opts->no_face_cull && vk->has.draw_indirect_count;
 	struct commands_push cp = {
-		t->per_patch, t->blocks, t->per_draw, t->max_draws, cpu_cull, (float)FACE_CULL_MARGIN
+		t->per_patch, t->blocks, t->per_draw, t->max_draws, cpu_cull, (float)FACE_CULL_MARGIN, gpu_cull, 0
 	};
 
 	VkCommandBuffer cmd;
@@ -128,6 +131,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdFillBuffer(cmd, v->clipped.buffer, 0, 4, 0); /* its count */
 	/* The first view drawn in a frame clears the frame's half of the use distances; the
 	 * selection (its half: frame & 1) takes the least over the frame's views. */
 	bool reset;
@@ -178,6 +182,14 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_ACCESS_SHADER_READ_BIT);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
+	/* The clipped list's draw records (lod_commands.comp, phase 1). */
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT);
+	cp.phase = 1;
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
+	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
+	vkCmdDispatch(cmd, 1, 1, 1);
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
 	                VK_PIPELINE_STAGE_TESSELLATION_CONTROL_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
@@ -189,15 +201,23 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
 	if (v->stats_pool)
 		vkCmdBeginQuery(cmd, v->stats_pool, 0, 0);
+	/* With back faces culled, the quads the rasteriser may clip (the clipped list,
+	 * lod_factors.comp) are drawn with them kept: the facing of a clipped triangle may be
+	 * decided by other arithmetic than its coverage, and a sliver upper side called
+	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). */
+	const VkDeviceSize split = offsetof(struct counters, draw_split);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
-		dp.mode = mode | (uint32_t)pass;
 		if (pass == 1)
-			draw_records(t, v, cmd, t->draw_wire, &dp, offsetof(struct counters, draws));
-		else if (gpu_cull) { /* one of the two counts is 0 */
-			draw_records(t, v, cmd, t->draw_cull, &dp, offsetof(struct counters, draw_split));
-			draw_records(t, v, cmd, t->draw_fill, &dp, offsetof(struct counters, draw_split) + 4);
+			draw_records(t, v, cmd, t->draw_wire, &dp, mode | 1u, 0, offsetof(struct counters, draws));
+		else if (gpu_cull) { /* one of the first two counts is 0 */
+			draw_records(t, v, cmd, t->draw_cull, &dp, mode | MODE_SKIP_CLIPPED, 0, split);
+			draw_records(t, v, cmd, t->draw_fill, &dp, mode, 0, split + 4);
+			draw_records(t, v, cmd, t->draw_fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+		} else if (cpu_cull) {
+			draw_records(t, v, cmd, t->draw_cull, &dp, mode | MODE_SKIP_CLIPPED, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, t->draw_fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
 		} else
-			draw_records(t, v, cmd, cpu_cull ? t->draw_cull : t->draw_fill, &dp, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, t->draw_fill, &dp, mode, 0, offsetof(struct counters, draws));
 		if (v->stats_pool && pass == 0)
 			vkCmdEndQuery(cmd, v->stats_pool, 0);
 	}
@@ -246,7 +266,8 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	struct relief_terrain_stats s = {
 		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
 		.face_culled = gpu_cull ? c->face_culled != 0 : cpu_cull,
-		.cull_height = gpu_cull && c->found ? c->near_high : NAN
+		.cull_height = gpu_cull && c->found ? c->near_high : NAN,
+		.clipped_quads = c->draw_split[3],
 	};
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */

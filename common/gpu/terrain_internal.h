@@ -37,6 +37,8 @@ struct commands_push {
 	uint32_t per_patch, blocks, per_draw, max_draws;
 	uint32_t cpu_cull; /* relief_surface_height_bound()'s decision, for when no drawn block holds the eye */
 	float margin;      /* FACE_CULL_MARGIN */
+	uint32_t gpu_decides; /* the GPU's decision splits the draws (vkCmdDrawIndirectCount); else cpu_cull's */
+	uint32_t phase;       /* 0: draw records and the decision; 1: the clipped list's records, after the factors */
 };
 
 struct draw_push {
@@ -75,11 +77,16 @@ struct counters {
 	 * block around it (metres) */
 	uint32_t face_culled, found;
 	float near_high;
-	uint32_t pad;
-	uint32_t draw_split[4];       /* the draw count for the culling pipeline, for the other */
+	uint32_t draw_culled; /* the decision the frame draws with: the GPU's, or cpu_cull without a split */
+	/* draw records for the culling pipeline, for the other, of the clipped list (both
+	 * lod_commands.comp), and the quads in that list (lod_factors.comp) */
+	uint32_t draw_split[4];
 };
 /* The per-view camera buffer (binding 15): the drawing view-projection, then the drawing
- * eye relative to the LOD camera (x east, y north) and its absolute height (z). */
+ * eye relative to the LOD camera (x east, y north) and its absolute height (z), and (w)
+ * the clip-space z of a point 0.1 % nearer than the far plane (lod_factors.comp,
+ * block_inside(): reversed depth falls towards 0 there, so a margin relative to w would
+ * reach far into the frustum). */
 struct draw_camera {
 	float vp[16];
 	float eye[4];
@@ -91,6 +98,10 @@ struct draw_camera {
 #define MODE_NO_BLOCK_CULL 16u
 #define MODE_MORPH 32u
 #define MODE_KEEP_EMPTY_BLOCKS 64u
+/* Back faces culled: the control shader drops the quads of the clipped list (bit 7); the
+ * vertex shader reads quad indices from that list (bit 8). docs/lod.md, "Back faces". */
+#define MODE_SKIP_CLIPPED 128u
+#define MODE_CLIPPED_LIST 256u
 
 /* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
@@ -99,8 +110,10 @@ struct draw_camera {
  * (terrain-edge sides of drawn patches), 15 the draw camera's view-projection (float[16]),
  * 16 seal records (uvec4 per quad, terrain_seal.glsl),
  * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
- * 18 the cache's use distances (patch_cache.h, pool.use_dist). */
-#define BINDINGS 19u
+ * 18 the cache's use distances (patch_cache.h, pool.use_dist),
+ * 19 the clipped list (a count, then the indices of quads the rasteriser may clip,
+ * lod_factors.comp). */
+#define BINDINGS 20u
 #define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
 
 static inline VkDescriptorType binding_type(uint32_t i)
@@ -125,7 +138,9 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains;
+	/* cmds: max_draws records of the frame's quads, then max_draws of the clipped list */
+	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains,
+		clipped;
 	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;

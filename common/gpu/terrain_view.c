@@ -22,7 +22,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->split[0], 4 * t->count, storage },
 		{ &v->split[1], 4 * t->count, storage },
 		{ &v->instances, sizeof(struct instance) * t->max_patches, storage | read },
-		{ &v->cmds, 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
+		{ &v->cmds, 2 * 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
 		{ &v->counters, sizeof(struct counters), indirect | read },
 		{ &v->wants, sizeof(struct want) * WANT_CAP, storage | read },
 		{ &v->drawn, 4 * t->count, storage },
@@ -31,6 +31,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage },
 		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
 		{ &v->camera, sizeof(struct draw_camera), storage },
+		{ &v->clipped, 4 + 4 * (VkDeviceSize)t->max_quads, storage },
 	};
 	const struct relief_vk_buffer_spec readback[] = {
 		{ &v->read_counters, sizeof(struct counters), VK_BUFFER_USAGE_TRANSFER_DST_BIT },
@@ -70,7 +71,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
-		                            v->seals.buffer, v->borders.buffer, pool->use_dist };
+		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->clipped.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -136,6 +137,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->borders);
 	relief_vk_buffer_finish(vk, &v->curtains);
 	relief_vk_buffer_finish(vk, &v->camera);
+	relief_vk_buffer_finish(vk, &v->clipped);
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);

@@ -254,6 +254,27 @@ static struct relief_dem coast_dem(int N)
 	return dem;
 }
 
+/* View i of the steep sweep over an N x N grid 30 m apart: 800-4,800 m over the middle
+ * column, looking down at a point within 1 km, so that the terrain fills the frame and
+ * any background pixel is a hole. */
+static struct pose steep_sweep_pose(int N, uint32_t i)
+{
+	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
+	uint32_t r = hash32(5000u + i);
+	double ey = len * (0.1 + 0.8 * (r % 1000) / 1000.0), ez = 800 + (hash32(r) % 4000);
+	double ex = cx + ((int)(hash32(r + 1) % 2000) - 1000);
+	double dx = (int)(hash32(r + 2) % 2000) - 1000, dy = (int)(hash32(r + 3) % 2000) - 1000;
+	return (struct pose){ { ex, ey, ez }, { ex + dx, ey + dy, 0 } };
+}
+
+static uint32_t background_pixels(const float *depth, uint32_t w, uint32_t h)
+{
+	uint32_t n = 0;
+	for (size_t k = 0; k < (size_t)w * h; k++)
+		n += !(depth[k] > 0.0f);
+	return n;
+}
+
 static void test_deep_level_jumps(void **state)
 {
 	enum { N = 1025 };
@@ -319,22 +340,14 @@ static void test_level_jumps_of_five(void **state)
 	uint32_t *ids = malloc(4 * s.f->hdr.patch_count);
 	float *depth = malloc(sizeof(float) * BW * BH);
 	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
-	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
 	const uint32_t sweep[] = { 9, 12, 83, 88, 95 };
 	for (size_t i = 0; i < sizeof(sweep) / sizeof(sweep[0]); i++) {
-		/* The sweep's camera: 800-4,800 m over the coast, looking down within 1 km. */
-		uint32_t r = hash32(5000u + sweep[i]);
-		double ey = len * (0.1 + 0.8 * (r % 1000) / 1000.0), ez = 800 + (hash32(r) % 4000);
-		double ex = cx + ((int)(hash32(r + 1) % 2000) - 1000);
-		double dx = (int)(hash32(r + 2) % 2000) - 1000, dy = (int)(hash32(r + 3) % 2000) - 1000;
-		struct pose p = { { ex, ey, ez }, { ex + dx, ey + dy, 0 } };
+		struct pose p = steep_sweep_pose(N, sweep[i]);
 		struct relief_view v = pose_view(&p);
 		v.tau = 4;
 		struct relief_terrain_stats st;
 		render_with(&s, &v, &bare, depth, &st);
-		uint32_t holes = 0;
-		for (size_t k = 0; k < (size_t)BW * BH; k++)
-			holes += !(depth[k] > 0.0f);
+		uint32_t holes = background_pixels(depth, BW, BH);
 		uint32_t nd;
 		drawn_levels(&s, ids, &nd);
 		uint32_t jump = max_level_jump(&s, ids, nd);
@@ -349,6 +362,64 @@ static void test_level_jumps_of_five(void **state)
 		gpu_matches_cpu(&s, &v, &st);
 	}
 	free(ids);
+	free(depth);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
+/* N x N samples 30 m apart of per-sample noise up to 200 m, east of the middle column on
+ * a 5 m per sample rise: slopes near 80 degrees everywhere. */
+static struct relief_dem steep_dem(int N)
+{
+	struct relief_dem dem = grid_dem(N);
+	for (int y = 0; y < N; y++)
+		for (int x = 0; x < N; x++)
+			dem.heights[(size_t)y * N + x] = (float)((x > N / 2 ? 5.0 * (x - N / 2) : 0.0) +
+			                                         (hash32((uint32_t)(y * N + x)) % 4000) * 0.05);
+	return dem;
+}
+
+/* Back faces culled where the rasteriser clips. A ray from above meets an upper side
+ * first, so culling back faces cannot uncover anything if the rasteriser decides facing
+ * from the same snapped positions as coverage; lavapipe does, except for triangles of a
+ * primitive that needs clipping (it has no guard band: any vertex outside the viewport),
+ * whose facing it takes from a floating-point determinant. A sliver upper side there can
+ * be called back-facing and dropped, and the pixel behind it shows the sky. So with back
+ * faces culled, a quad whose box is not well inside the clip volume is drawn with them
+ * kept (the clipped list, lod_factors.comp). The view: 2049 x 2049 samples of steep_dem()
+ * at 65-sample patches, view 29 of 1,000 of the steep sweep at tau 4 and 8, skirts off.
+ * Without the list, one background pixel at (4, 124) in both (checked when the test was
+ * written; 2 of 3,000 frames of the sweep, none with the list; and none with back faces
+ * drawn). With it: no background pixel, culled or not, and the list holds some of the
+ * frame's quads, not all. */
+static void test_face_cull_at_frame_edges(void **state)
+{
+	enum { N = 2049 };
+	struct relief_dem dem = steep_dem(N);
+	struct scene s;
+	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, BW, BH, 0);
+	relief_dem_finish(&dem);
+	float *depth = malloc(sizeof(float) * BW * BH);
+	struct pose p = steep_sweep_pose(N, 29);
+	struct relief_view v = pose_view(&p);
+	const double taus[] = { 4, 8 };
+	for (size_t i = 0; i < 2; i++)
+		for (int cull = 1; cull >= 0; cull--) {
+			v.tau = taus[i];
+			struct relief_draw_options o = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true, .no_face_cull = !cull };
+			struct relief_terrain_stats st;
+			render_with(&s, &v, &o, depth, &st);
+			uint32_t holes = background_pixels(depth, BW, BH), quads = st.patches * s.f->layout.blocks * s.f->layout.blocks;
+			print_message("steep view, tau %g, back faces %s: %u patches, %u of their %u block quads in the clipped "
+			              "list, %u background pixels\n",
+			              v.tau, st.face_culled ? "culled" : "drawn", st.patches, st.clipped_quads, quads, holes);
+			assert_int_equal(holes, 0);
+			assert_int_equal(st.face_culled, cull);
+			if (cull)
+				assert_true(st.clipped_quads > 0 && st.clipped_quads < quads);
+			else
+				assert_int_equal(st.clipped_quads, 0);
+		}
 	free(depth);
 	scene_close(&s);
 	gpu_test_assert_clean(vk);
@@ -745,6 +816,7 @@ int main(void)
 		cmocka_unit_test(test_sealed_corners),
 		cmocka_unit_test(test_deep_level_jumps),
 		cmocka_unit_test(test_level_jumps_of_five),
+		cmocka_unit_test(test_face_cull_at_frame_edges),
 		cmocka_unit_test(test_ridge_above_measuring_points),
 		cmocka_unit_test(test_no_lone_centre_fan),
 		cmocka_unit_test(test_fan_rule_spares_single_segment_edges),
