@@ -250,6 +250,9 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		relief_patch_coords(lay, id, &l, &px, &py);
 		uint8_t marks = draw[id];
 		draw[id] = 0;
+		split_next[id] = 0;
+		if (!(marks & WANTED))
+			continue; /* nor REACHABLE: a drawn patch's ancestors all want to split */
 		struct relief_box box;
 		relief_patch_box(f, &o, id, &box);
 		struct relief_patch_record rec;
@@ -259,8 +262,6 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		bool wish = l + 1 < lay->levels &&
 		            (wants_split(err, tau, split_prev[id]) || forced_split(f, &o, kappa, tau, split_prev, id));
 		split_next[id] = wish;
-		if (!(marks & WANTED))
-			continue; /* nor REACHABLE: a drawn patch's ancestors all want to split */
 		if (id != 0 && !(rec.flags & RELIEF_PATCH_EMPTY) && !resident[id] && *n_want < want_cap)
 			want[(*n_want)++] = id;
 		if (relief_box_culled(vp, &box))

@@ -127,7 +127,9 @@ double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *id
 
 /* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
  * drawn (resident in the cache); `split_prev` / `split_next` are the view's hysteresis bits
- * (one byte per patch; next is written for every patch). Fills `draw[id]` (1 = draw) and
+ * (one byte per patch; next is written for every patch: 0 for a patch the selection does
+ * not visit, one with an ancestor outside the frustum or not wanting to split, as the
+ * GPU's selection only visits the others). Fills `draw[id]` (1 = draw) and
  * returns the number drawn. Patches outside the frustum are neither drawn nor split. `want`
  * receives up to want_cap missing patches (not the root) of the tree the view draws once
  * everything has arrived: every ancestor in the frustum and wanting to split, resident or

@@ -1,21 +1,28 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
-// Coarse LOD for one view, one invocation per patch (common/lod.c is the CPU reference).
+// Coarse LOD for one view, one dispatch per level of the tree, one invocation per patch of
+// that level's frontier: the patches all of whose ancestors are in the frustum and want to
+// split (common/lod.c is the CPU reference). So the work follows the tree the view
+// draws, not the whole tree: a 10-level tree has 349,525 patches, a view visits a few
+// hundred. Each invocation appends the four children of its patch to the next level's
+// frontier when the patch is in the frustum and wants to split, and raises that level's
+// workgroup count (the next dispatch is indirect). A frontier entry carries whether every
+// ancestor is resident with its children there (so the patch can be drawn), and the
+// distance to the parent's box.
 // A patch wants to split by its screen-space error (with hysteresis: bit 0 of its split
-// state) or when lod_force.comp, run before for trees of 7 levels or more, set bit 1.
-// A patch is drawn when every ancestor is resident, in the frustum, wants to split and has
-// its children there, while the patch itself is resident, in the frustum, and either does
-// not want to split or lacks children. Each invocation re-derives its ancestors' decisions,
-// so no invocation waits for another. Box, distance and error use the same float
-// arithmetic as the CPU, written `precise` so that no multiply-add is fused.
-// Requests look ahead: a missing patch is asked for when every ancestor is in the frustum
-// and wants to split, resident or not (it belongs to the tree this view draws once
-// everything has arrived), so a cold cache or a camera that jumps asks for the whole chain
-// down to the finest patch it needs in one frame, not one level per round trip. Each
-// request carries the distance from the camera to the patch's parent's box: nearest first,
-// and the four siblings a split needs alike, so that a cache short of layers completes
-// one sibling set before it starts the next.
+// state, the view's last frame's decision, 0 for a patch that frame did not visit) or when
+// lod_force.comp, run before for trees of 7 levels or more, set bit 1. It is drawn when
+// it is resident, in the frustum, and either does not want to split or lacks children.
+// Box, distance and error use the same float arithmetic as the CPU, written `precise` so
+// that no multiply-add is fused.
+// Requests look ahead: a missing patch of the frontier is asked for whether its ancestors
+// are resident or not (it belongs to the tree this view draws once everything has
+// arrived), so a cold cache or a camera that jumps asks for the whole chain down to the
+// finest patch it needs in one frame, not one level per round trip. Each request carries
+// the distance from the camera to the patch's parent's box: nearest first, and the four
+// siblings a split needs alike, so that a cache short of layers completes one sibling set
+// before it starts the next.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
@@ -31,6 +38,11 @@ layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
 layout(std430, binding = 18) buffer UseDist { uint use_dist[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
+// Level l's frontier at [first_id(l), first_id(l) + its count): (id | 1 << 31 when every
+// ancestor is resident with its children there, distance to the parent's box as float bits).
+layout(std430, binding = 20) buffer Frontier { uvec2 frontier[]; };
+// Per level: the VkDispatchIndirectCommand of its pass (x, 1, 1) and its frontier's count (w).
+layout(std430, binding = 21) buffer LevelPasses { uvec4 passes[]; };
 
 #include "lod_select_common.glsl"
 
@@ -60,37 +72,34 @@ bool wants_split(uint l, uint id, float d)
 
 bool child_missing(uint c) { return info[c].skirt >= 0.0 && layer_of[c] < 0; }
 
+// Appends the four children of patch (l, px, py) to level l + 1's frontier.
+void push_children(uint l, uint px, uint py, bool reachable, float d)
+{
+	uint n = atomicAdd(passes[l + 1u].w, 4u);
+	atomicMax(passes[l + 1u].x, (n + 4u + 63u) / 64u);
+	uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l, at = first_id(l + 1u) + n;
+	uint mark = reachable ? 0x80000000u : 0u, dist = floatBitsToUint(d);
+	frontier[at] = uvec2(c0 | mark, dist);
+	frontier[at + 1u] = uvec2((c0 + 1u) | mark, dist);
+	frontier[at + 2u] = uvec2((c0 + row) | mark, dist);
+	frontier[at + 3u] = uvec2((c0 + row + 1u) | mark, dist);
+}
+
 void main()
 {
-	uint id = gl_GlobalInvocationID.x;
-	if (id >= pc.count)
+	uint l = pc.level;
+	if (gl_GlobalInvocationID.x >= passes[l].w)
 		return;
-	uint l = 0u;
-	while (first_id(l + 1u) <= id)
-		l++;
+	uvec2 e = frontier[first_id(l) + gl_GlobalInvocationID.x];
+	uint id = e.x & 0x7fffffffu;
 	uint local = id - first_id(l), side = 1u << l;
 	uint px = local % side, py = local / side;
 	vec3 bmin, bmax;
 	box(l, px, py, id, bmin, bmax);
 	float d = distance_to(bmin, bmax);
+	float parent_d = l == 0u ? d : uintBitsToFloat(e.y); // the root's own
 	bool wish = wants_split(l, id, d);
 	split_next[id] = wish ? 1u : 0u;
-
-	// Drawn needs every ancestor resident, visible and splitting with its children there;
-	// wanted (requested when missing) needs every ancestor visible and wanting to split.
-	bool reachable = true;
-	float parent_d = d; // the root's own
-	for (uint a = 0u; a < l; a++) {
-		uint ax = px >> (l - a), ay = py >> (l - a), aid = first_id(a) + ay * (1u << a) + ax;
-		vec3 amin, amax;
-		box(a, ax, ay, aid, amin, amax);
-		parent_d = distance_to(amin, amax);
-		if (culled(amin, amax) || !wants_split(a, aid, parent_d))
-			return;
-		uint c0 = first_id(a + 1u) + 2u * ay * (2u << a) + 2u * ax, row = 2u << a;
-		reachable = reachable && layer_of[aid] >= 0 && !child_missing(c0) && !child_missing(c0 + 1u) &&
-		            !child_missing(c0 + row) && !child_missing(c0 + row + 1u);
-	}
 	if (l > 0u && child_missing(id)) {
 		uint n = atomicAdd(counters.wants, 1u);
 		if (n < pc.want_cap)
@@ -101,15 +110,21 @@ void main()
 	// then again them for it, every frame.
 	if (layer_of[id] >= 0) {
 		use_frame[id] = pc.frame;
-		atomicMin(use_dist[(pc.frame & 1u) * pc.count + id], floatBitsToUint(parent_d));
+		atomicMin(use_dist[(pc.frame & 1u) * patch_count() + id], floatBitsToUint(parent_d));
 	}
-	if (!reachable || layer_of[id] < 0 || culled(bmin, bmax))
+	if (culled(bmin, bmax))
 		return;
+	bool reachable = (e.x & 0x80000000u) != 0u && layer_of[id] >= 0;
 	if (wish) {
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
-		if (!child_missing(c0) && !child_missing(c0 + 1u) && !child_missing(c0 + row) && !child_missing(c0 + row + 1u))
+		bool there = !child_missing(c0) && !child_missing(c0 + 1u) && !child_missing(c0 + row) &&
+		             !child_missing(c0 + row + 1u);
+		push_children(l, px, py, reachable && there, d);
+		if (reachable && there)
 			return; // the children draw this area
 	}
+	if (!reachable)
+		return;
 	uint n = atomicAdd(counters.drawn, 1u);
 	Instance it;
 	it.id = id;

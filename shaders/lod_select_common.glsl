@@ -8,10 +8,15 @@ layout(push_constant) uniform Push {
 	vec2 frac;        // and its fraction
 	vec2 spacing;     // finest spacing, metres
 	float cam_z, kappa, tau;
-	uint frame, count, levels, P, want_cap;
+	uint frame;
+	uint level;       // lod_select.comp: the level this dispatch visits
+	uint levels, P, want_cap;
 	float delta_finest; // tolerance of the finest level, metres
 	uint ratio;
 } pc;
+
+// Patches in the tree: first_id(levels), without shifting 1 by 32 for 16 levels.
+uint patch_count() { return first_id(pc.levels - 1u) + (1u << (2u * (pc.levels - 1u))); }
 
 void box(uint l, uint px, uint py, uint id, out vec3 bmin, out vec3 bmax)
 {

@@ -66,7 +66,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : lod->tau) *
 		               (opts->fine == RELIEF_FINE_ERRORS ? RELIEF_LOD_COARSE_SHARE : 1.0)),
 		.frame = (uint32_t)frame,
-		.count = t->count,
+		.level = 0,
 		.levels = f->hdr.levels,
 		.P = f->hdr.patch_size,
 		.want_cap = WANT_CAP,
@@ -132,6 +132,15 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->clipped.buffer, 0, 4, 0); /* its count */
+	/* The selection visits the patches of its frontiers only and writes their split state:
+	 * every other patch's is 0 (not split). Level 0's frontier is the root, which every
+	 * ancestor (none) lets be drawn. */
+	vkCmdFillBuffer(cmd, v->split[v->parity ^ 1].buffer, 0, VK_WHOLE_SIZE, 0);
+	uint32_t passes[RELIEF_MAX_LEVELS][4];
+	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
+		memcpy(passes[l], (uint32_t[4]){ l == 0, 1, 1, l == 0 }, sizeof(passes[l]));
+	vkCmdUpdateBuffer(cmd, v->passes.buffer, 0, sizeof(passes), passes);
+	vkCmdUpdateBuffer(cmd, v->frontier.buffer, 0, 8, (uint32_t[2]){ 0x80000000u, 0 });
 	/* The first view drawn in a frame clears the frame's half of the use distances; the
 	 * selection (its half: frame & 1) takes the least over the frame's views. */
 	bool reset;
@@ -139,10 +148,11 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	if (reset)
 		vkCmdFillBuffer(cmd, relief_patch_cache_pool(t->cache)->use_dist, (VkDeviceSize)half * 4 * t->count,
 		                (VkDeviceSize)4 * t->count, UINT32_MAX);
-	/* The camera is read by compute and by the evaluation shader. */
+	/* The camera is read by compute and by the evaluation shader, the passes as dispatches. */
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-	        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT,
-	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT |
+	                VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 	VkDescriptorSet set = v->set[v->parity];
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
@@ -155,10 +165,16 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
 	}
+	/* One pass per level over its frontier, each sized by the one before (lod_select.comp). */
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select);
-	vkCmdDispatch(cmd, (t->count + 63) / 64, 1, 1);
-	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	for (uint32_t l = 0; l < sp.levels; l++) {
+		vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, offsetof(struct select_push, level),
+		                   sizeof(l), &l);
+		vkCmdDispatchIndirect(cmd, v->passes.buffer, 16 * (VkDeviceSize)l);
+		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
+		        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+	}
 	/* Different push ranges make the layouts incompatible for the set: bind it again. */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);

@@ -27,7 +27,9 @@ struct select_push {
 	int32_t cell[2];
 	float frac[2], spacing[2];
 	float cam_z, kappa, tau;
-	uint32_t frame, count, levels, P, want_cap;
+	uint32_t frame;
+	uint32_t level; /* lod_select.comp: the level a dispatch visits (set per dispatch) */
+	uint32_t levels, P, want_cap;
 	float delta_finest;
 	uint32_t ratio;
 };
@@ -112,8 +114,9 @@ struct draw_camera {
  * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
  * 18 the cache's use distances (patch_cache.h, pool.use_dist),
  * 19 the clipped list (a count, then the indices of quads the rasteriser may clip,
- * lod_factors.comp). */
-#define BINDINGS 20u
+ * lod_factors.comp), 20 the selection's frontiers (uvec2 per patch, lod_select.comp),
+ * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count). */
+#define BINDINGS 22u
 #define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
 
 static inline VkDescriptorType binding_type(uint32_t i)
@@ -140,7 +143,7 @@ struct relief_terrain_view {
 	struct relief_terrain *t;
 	/* cmds: max_draws records of the frame's quads, then max_draws of the clipped list */
 	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains,
-		clipped;
+		clipped, frontier, passes;
 	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;

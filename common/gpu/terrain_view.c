@@ -32,6 +32,8 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
 		{ &v->camera, sizeof(struct draw_camera), storage },
 		{ &v->clipped, 4 + 4 * (VkDeviceSize)t->max_quads, storage },
+		{ &v->frontier, 8 * (VkDeviceSize)t->count, storage },
+		{ &v->passes, 16 * RELIEF_MAX_LEVELS, indirect },
 	};
 	const struct relief_vk_buffer_spec readback[] = {
 		{ &v->read_counters, sizeof(struct counters), VK_BUFFER_USAGE_TRANSFER_DST_BIT },
@@ -71,7 +73,8 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
-		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->clipped.buffer };
+		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->clipped.buffer,
+		                            v->frontier.buffer, v->passes.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -138,6 +141,8 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->curtains);
 	relief_vk_buffer_finish(vk, &v->camera);
 	relief_vk_buffer_finish(vk, &v->clipped);
+	relief_vk_buffer_finish(vk, &v->frontier);
+	relief_vk_buffer_finish(vk, &v->passes);
 	relief_vk_buffer_finish(vk, &v->cmds);
 	relief_vk_buffer_finish(vk, &v->counters);
 	relief_vk_buffer_finish(vk, &v->wants);

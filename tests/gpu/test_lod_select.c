@@ -160,6 +160,79 @@ static void test_gpu_matches_cpu(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* The view of pose (eye = at + dist dir, looking at `at`, or away from it), tau 1. */
+static struct relief_view hysteresis_view(const double at[3], const double dir[3], double dist, bool away)
+{
+	struct relief_view v = {
+		.eye = { at[0] + dir[0] * dist, at[1] + dir[1] * dist, at[2] + dir[2] * dist },
+		.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 1.0,
+	};
+	double sign = away ? -1.0 : 1.0;
+	v.target = (struct relief_vec3){ v.eye.x - sign * dir[0], v.eye.y - sign * dir[1], v.eye.z - sign * dir[2] };
+	return v;
+}
+
+/* Hysteresis, frame after frame, GPU against the CPU reference fed its own last split
+ * state. The CPU finds, backing away from Mt Rainier in steps of 2 % from 2 km, the first
+ * distance d from which backing 10 % further keeps a patch split that a selection without
+ * history merges (its error between 0.8 tau and tau). Frame A at d, then B 10 % further:
+ * B must differ from a fresh selection. Then C looks away
+ * (the patch's ancestors leave the frustum, the selection does not visit it, its state
+ * becomes "not split"), and D is B's pose again: it must equal a fresh selection. At
+ * every frame the GPU's drawn patches equal the CPU's. */
+static void test_hysteresis_matches_cpu(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, 320, 180);
+	load_everything(&s);
+	const uint32_t n = s.f->hdr.patch_count;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint8_t *fresh_next = malloc(n), *fresh_draw = malloc(n), *zero = calloc(n, 1), *last = malloc(n);
+	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), n_want;
+	for (uint32_t id = 0; id < n; id++)
+		resident[id] = relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT;
+	const double at[3] = { 128480, 79200, 3000 }, dir[3] = { -0.55, -0.6, 0.58 };
+	double d = 2000;
+	struct relief_view v;
+	for (;; d *= 1.02) {
+		assert_true(d < 100000);
+		v = hysteresis_view(at, dir, d, false);
+		relief_lod_select(s.f, &v, resident, zero, last, draw, want, n, &n_want);
+		v = hysteresis_view(at, dir, d * 1.1, false);
+		relief_lod_select(s.f, &v, resident, last, next, draw, want, n, &n_want);
+		relief_lod_select(s.f, &v, resident, zero, fresh_next, fresh_draw, want, n, &n_want);
+		if (memcmp(draw, fresh_draw, n) != 0)
+			break;
+	}
+	const struct { double dist; bool away; int fresh; } frames[] = {
+		{ d, false, 1 }, { d * 1.1, false, 0 }, { d * 1.1, true, -1 }, { d * 1.1, false, 1 },
+	};
+	for (size_t k = 0; k < sizeof(frames) / sizeof(frames[0]); k++) {
+		v = hysteresis_view(at, dir, frames[k].dist, frames[k].away);
+		struct relief_terrain_stats st;
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 10 + k, NULL, &st), 0);
+		uint32_t ng = view_drawn(s.view, gpu, n);
+		qsort(gpu, ng, 4, cmp_u32);
+		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
+		relief_lod_select(s.f, &v, resident, zero, fresh_next, fresh_draw, want, n, &n_want);
+		bool same_as_fresh = memcmp(draw, fresh_draw, n) == 0;
+		print_message("frame %c, %.0f m out%s: GPU %u patches, CPU %u, %s a selection without history\n",
+		              (char)('A' + k), frames[k].dist, frames[k].away ? ", looking away" : "", ng, nc,
+		              same_as_fresh ? "as" : "unlike");
+		assert_int_equal(ng, nc);
+		for (uint32_t i = 0, j = 0; i < n; i++)
+			if (draw[i])
+				assert_int_equal(gpu[j++], i);
+		if (frames[k].fresh >= 0)
+			assert_int_equal(same_as_fresh, frames[k].fresh);
+		memcpy(prev, next, n);
+	}
+	free(resident); free(prev); free(next); free(draw); free(fresh_next); free(fresh_draw); free(zero); free(last);
+	free(want); free(gpu);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* Requests look ahead: from a cold cache, the first frame asks for the whole tree the view
  * draws once everything has arrived, down to the finest level (not one level per frame),
  * and the GPU's requests equal the CPU reference's, there and with part of the tree
@@ -773,6 +846,7 @@ int main(void)
 		cmocka_unit_test(test_view_check),
 		cmocka_unit_test(test_view_axes),
 		cmocka_unit_test(test_gpu_matches_cpu),
+		cmocka_unit_test(test_hysteresis_matches_cpu),
 		cmocka_unit_test(test_requests_look_ahead),
 		cmocka_unit_test(test_views_share_cache),
 		cmocka_unit_test(test_near_detail_takes_layers),
