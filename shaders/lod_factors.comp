@@ -32,45 +32,32 @@ void seal_corner(uint slot, vec2 s[4], inout uvec4 seal)
 		}
 }
 
-// Whether the box of the block at lo (patch samples), between heights range, is wholly
-// outside the draw camera's frustum: all eight corners beyond one clip plane, the planes
-// moved out by 0.1 % of w so that rounding (the corners are formed from one corner and
-// the matrix's columns, the vertices by pos_of()) cannot cull a block that shows a sliver.
-// The box is convex, so the block is then unseen.
-bool block_unseen(Instance it, vec2 lo, vec2 range)
+// Where the box of the block at lo (patch samples), between heights range, lies against
+// the draw camera's clip volume (the corners are formed from one corner and the matrix's
+// columns, the vertices by pos_of(), so each test leaves 0.1 % of w for rounding):
+// BLOCK_UNSEEN, all eight corners beyond one plane moved out by 0.1 % (the box is convex,
+// so the block shows nothing; no sliver it shows can be culled); BLOCK_INSIDE, every
+// corner within every plane moved in by 0.1 %, and 0.1 % of the distance before the far
+// plane (draw_eye.w; reversed depth nears 0 there, so a margin relative to w would reach
+// deep into the frustum): the rasteriser clips nothing the block draws, unless a seal or
+// a curtain reaches beyond its box; BLOCK_CROSSING otherwise.
+const uint BLOCK_UNSEEN = 0u, BLOCK_CROSSING = 1u, BLOCK_INSIDE = 2u;
+uint block_clip(Instance it, vec2 lo, vec2 range)
 {
 	mat4 m = draw_vp; // one read of the buffer (a CPU implementation loads it lane by lane)
 	vec4 c0 = m * vec4(pos_of(it, ivec2(lo), range.x), 1.0);
 	float side = float(int(BLOCK_CELLS) * it.scale);
 	vec4 ex = m[0] * (side * it.spacing.x), ey = m[1] * (-side * it.spacing.y), ez = m[2] * (range.y - range.x);
 	uint outside = 63u;
-	for (int c = 0; c < 8; c++) {
-		vec4 p = c0 + ((c & 1) != 0 ? ex : vec4(0.0)) + ((c & 2) != 0 ? ey : vec4(0.0)) + ((c & 4) != 0 ? ez : vec4(0.0));
-		float w = 1.001 * p.w;
-		outside &= (p.x < -w ? 1u : 0u) | (p.x > w ? 2u : 0u) | (p.y < -w ? 4u : 0u) | (p.y > w ? 8u : 0u) |
-		           (p.z < -0.001 * p.w ? 16u : 0u) | (p.z > w ? 32u : 0u);
-	}
-	return outside != 0u;
-}
-
-// Whether every point of the box of the block at lo, between heights range, is strictly
-// inside the draw camera's clip volume, with 0.1 % of w to spare for rounding as above,
-// and 0.1 % of the distance before the far plane (draw_eye.w; reversed depth nears 0
-// there); and so is everything the block draws, unless a seal or a curtain reaches
-// beyond its box. The rasteriser clips nothing of such a block.
-bool block_inside(Instance it, vec2 lo, vec2 range)
-{
-	mat4 m = draw_vp;
-	vec4 c0 = m * vec4(pos_of(it, ivec2(lo), range.x), 1.0);
-	float side = float(int(BLOCK_CELLS) * it.scale);
-	vec4 ex = m[0] * (side * it.spacing.x), ey = m[1] * (-side * it.spacing.y), ez = m[2] * (range.y - range.x);
 	bool inside = true;
 	for (int c = 0; c < 8; c++) {
 		vec4 p = c0 + ((c & 1) != 0 ? ex : vec4(0.0)) + ((c & 2) != 0 ? ey : vec4(0.0)) + ((c & 4) != 0 ? ez : vec4(0.0));
-		float w = 0.999 * p.w;
-		inside = inside && p.w > 0.0 && abs(p.x) < w && abs(p.y) < w && p.z > draw_eye.w && p.z < w;
+		float wo = 1.001 * p.w, wi = 0.999 * p.w;
+		outside &= (p.x < -wo ? 1u : 0u) | (p.x > wo ? 2u : 0u) | (p.y < -wo ? 4u : 0u) | (p.y > wo ? 8u : 0u) |
+		           (p.z < -0.001 * p.w ? 16u : 0u) | (p.z > wo ? 32u : 0u);
+		inside = inside && p.w > 0.0 && abs(p.x) < wi && abs(p.y) < wi && p.z > draw_eye.w && p.z < wi;
 	}
-	return inside;
+	return outside != 0u ? BLOCK_UNSEEN : inside ? BLOCK_INSIDE : BLOCK_CROSSING;
 }
 
 // Whether block bl of a layer has a valid sample. One without shows nothing: the fragment
@@ -85,7 +72,7 @@ bool block_has_data(int layer, ivec2 bl)
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,
 // v = 1 south) and inner; all zero discards the quad. `seal`: its seal record; `morph`:
 // the morph bytes of the outer edges (x) and of the interior (y), packed as in factors[];
-// `inside`: the rasteriser clips none of its triangles (block_inside()).
+// `inside`: the rasteriser clips none of its triangles (block_clip()).
 void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner, out uvec4 seal, out uvec2 morph,
                   out bool inside)
 {
@@ -136,16 +123,17 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		// not worked out (only its own control shader reads them; each neighbour computes
 		// a shared edge's factor itself). Everything it draws lies in its box unless a
 		// border takes a coarser patch's heights (a seal): such a block is kept.
-		if (cull && (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u &&
-		    block_unseen(it, lo, range)) {
+		bool unsealed = (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u;
+		uint clip = unsealed ? block_clip(it, lo, range) : BLOCK_CROSSING;
+		if (cull && clip == BLOCK_UNSEEN) {
 			outer = vec4(0.0);
 			inner = vec2(0.0);
 			return;
 		}
+		inside = clip == BLOCK_INSIDE;
 		// The block's corners, edge middles and centre in clip space at its measuring height,
 		// 3 x 3 in raster order: where its interior is measured, and its edges at the height
 		// both blocks of the edge share.
-		inside = (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u && block_inside(it, lo, range);
 		vec4 pt[9];
 		const float half_block = float(BLOCK_CELLS / 2u);
 		if (errors)

@@ -13,7 +13,7 @@ layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
 // The view-projection the picture is drawn with; equal to pc.vp unless the level of detail
 // was chosen for another camera (relief_draw_options.lod_view). pc.vp stays the LOD's.
 // draw_eye: the drawing camera's eye (lod_commands.comp, back faces); w: the clip-space z
-// 0.1 % nearer than the far plane (lod_factors.comp, block_inside()).
+// 0.1 % nearer than the far plane (lod_factors.comp, block_clip()).
 layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; vec4 draw_eye; };
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 10, r32ui) uniform readonly uimage2DArray normals; // packSnorm4x8, see patch_normals.comp
