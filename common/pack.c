@@ -11,7 +11,6 @@
 #include <unistd.h>
 
 #include "crc32c.h"
-#include "fill.h"
 #include "format.h"
 #include "le.h"
 #include "pack.h"
@@ -41,7 +40,6 @@ struct packer {
 	const struct relief_dem *dem;
 	const struct relief_pack_options *opts;
 	struct relief_layout lay;
-	float *filled; /* size x size */
 	struct relief_qgrid q[RELIEF_MAX_LEVELS];
 	uint32_t level; /* for the per-level row jobs */
 	struct relief_original orig;
@@ -70,16 +68,16 @@ static inline bool level_valid(const struct packer *p, uint32_t l, int x, int y)
 	return X < p->dem->width && Y < p->dem->height && p->dem->valid[Y * p->dem->width + X];
 }
 
+/* The height of level-l sample (x, y), which must be valid (level_valid()): only valid
+ * samples are ever quantised from a height; no-data ones take a prediction. */
 static inline double level_height(const struct packer *p, uint32_t l, int x, int y)
 {
-	const uint32_t S = p->q[l].size, step = 1u << (p->lay.levels - 1 - l);
-	uint32_t cx = x < 0 ? 0 : (uint32_t)x >= S ? S - 1 : (uint32_t)x;
-	uint32_t cy = y < 0 ? 0 : (uint32_t)y >= S ? S - 1 : (uint32_t)y;
-	return p->filled[(size_t)cy * step * p->lay.size + (size_t)cx * step];
+	const size_t step = (size_t)1 << (p->lay.levels - 1 - l);
+	return p->dem->heights[(size_t)y * step * p->dem->width + (size_t)x * step];
 }
 
 /* Level quantisation, pass 1: the refined samples (x, y even, inside), row 2*row2.
- * Level 0 quantises every sample (ring included) of the hole-filled heights.
+ * Level 0 quantises every valid sample (ring included).
  * Level l > 0 refines the parent: q = k q_parent + r, r clamped to {-1, 0, 1}. For k = 2
  * the clamp never acts (|h/(2 delta) - 2 q_parent| <= 1); for k = 3 only at exact ties
  * (|.| = 1.5), where r = +-1 still gives |h - 2 delta q| = delta. No-data samples take
@@ -408,21 +406,18 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		ret = -ERANGE;
 		goto out;
 	}
-	const uint32_t S = p->lay.size, n = p->lay.patch_count, P = p->lay.geom.P;
+	const uint32_t n = p->lay.patch_count, P = p->lay.geom.P;
 	p->orig = (struct relief_original){ dem->heights, dem->valid, dem->width, dem->height };
-	p->filled = malloc(sizeof(float) * S * S);
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
 	p->eps = calloc((size_t)n * relief_block_errors_per_patch(P), sizeof(double));
 	p->ranges = calloc((size_t)n * relief_block_ranges_per_patch(P), sizeof(double));
 	p->mask = calloc(n, sizeof(*p->mask));
 	p->mask_size = calloc(n, sizeof(*p->mask_size));
-	if (!p->filled || !p->rec || !p->stream || !p->eps || !p->ranges || !p->mask || !p->mask_size) {
+	if (!p->rec || !p->stream || !p->eps || !p->ranges || !p->mask || !p->mask_size) {
 		ret = -ENOMEM;
 		goto out;
 	}
-	if ((ret = relief_fill(dem->heights, dem->valid, dem->width, dem->height, S, p->filled)) < 0)
-		goto out;
 	for (uint32_t l = 0; l < p->lay.levels; l++) {
 		if ((ret = relief_qgrid_init(&p->q[l], relief_level_size(&p->lay, l))) < 0)
 			goto out;
@@ -457,7 +452,6 @@ out:
 	free(p->mask);
 	free(p->mask_size);
 	free(p->stream);
-	free(p->filled);
 	free(p->rec);
 	free(p->eps);
 	free(p->ranges);

@@ -327,7 +327,7 @@ double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side)
 	uint32_t levels = relief_layout_levels_for(patch, d->width, d->height); /* < 64 */
 	double s = ldexp((double)(patch - 1), (int)levels - 1) + 1;
 	*side = s;
-	return 11.0 * s * s + 9.0 * (double)d->width * d->height;
+	return 6.0 * s * s + 12.0 * (double)d->width * d->height;
 }
 
 void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch, const char *why,
@@ -339,7 +339,7 @@ void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem
 		snprintf(where, sizeof(where), " where this machine has %.1f GB", have / 1e9);
 	fprintf(stderr,
 	        "relief %s: %s: %s: the quadtree is square, so this %u x %u raster is packed in a %.0f x %.0f grid "
-	        "(%.3g G samples), and packing that holds about %.1f GB (11 bytes per grid sample, 9 per raster "
+	        "(%.3g G samples), and packing that holds about %.1f GB (6 bytes per grid sample, 12 per raster "
 	        "sample)%s; see docs/format.md, \"Known limits\"\n",
 	        cmd, path, why, d->width, d->height, side, side, side * side / 1e9, need / 1e9, where);
 }

@@ -35,8 +35,9 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
  * data because they were not heights (relief_dem.dropped), if any. */
 void dem_report_dropped(const char *cmd, const char *path, const struct relief_dem *d);
 /* What packing raster d at `patch` samples a side holds at peak, in bytes: the padded
- * square grid's arrays (about 11 bytes per grid sample) and the raster's (about 9 per
- * sample), as measured (docs/format.md, "Known limits"); *side receives the grid's side. */
+ * square grid's arrays (about 6 bytes per grid sample: the quantised levels) and the
+ * raster's (about 12 per sample), as measured, rounded up (docs/format.md, "Known
+ * limits"); *side receives the grid's side. */
 double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side);
 /* Says on stderr "relief CMD: PATH: WHY: ..." with the padded grid and that estimate, and
  * the machine's memory `have` (bytes) when it is above 0. */
