@@ -84,10 +84,14 @@ bool relief_patch_coords(const struct relief_layout *lay, uint32_t id, uint32_t 
 	return true;
 }
 
-int relief_qgrid_init(struct relief_qgrid *g, uint32_t size)
+int relief_qgrid_init(struct relief_qgrid *g, uint32_t size, uint32_t w, uint32_t h)
 {
+	if (w > size || h > size)
+		return -EINVAL;
 	g->size = size;
-	g->q = calloc((size_t)(size + 2) * (size + 2), sizeof(int32_t));
+	g->w = w;
+	g->h = h;
+	g->q = calloc((size_t)(w + 2) * (h + 2), sizeof(int32_t));
 	return g->q ? 0 : -ENOMEM;
 }
 
@@ -102,9 +106,8 @@ void relief_qgrid_finish(struct relief_qgrid *g)
 void relief_qgrid_get_patch(const struct relief_qgrid *g, const struct relief_patch_geom *geom,
                             uint32_t px, uint32_t py, int32_t *block)
 {
-	/* Patch local -1 = global px (P-1) - 1 = storage index px (P-1). */
-	size_t stride = g->size + 2;
+	/* Patch local -1 = global px (P-1) - 1; the patch lies inside the window. */
+	const int x0 = (int)(px * (geom->P - 1)) - 1, y0 = (int)(py * (geom->P - 1)) - 1;
 	for (uint32_t y = 0; y < geom->E; y++)
-		memcpy(block + (size_t)y * geom->E, g->q + (py * (geom->P - 1) + y) * stride + px * (geom->P - 1),
-		       sizeof(int32_t) * geom->E);
+		memcpy(block + (size_t)y * geom->E, g->q + relief_qgrid_index(g, x0, y0 + (int)y), sizeof(int32_t) * geom->E);
 }

@@ -70,14 +70,21 @@ bool relief_patch_coords(const struct relief_layout *lay, uint32_t id, uint32_t 
 void relief_patch_window(const struct relief_layout *lay, uint32_t width, uint32_t height, uint32_t l, uint32_t px,
                          uint32_t py, struct relief_window *win);
 
-/* A level's quantised values with a one-sample ring: (size + 2)^2 values, sample (x, y)
- * for x, y in [-1, size] at [(y + 1)(size + 2) + x + 1]. */
+/* A level's quantised values with a one-sample ring, over a window of the level that
+ * starts at its sample 0 (the raster lies at the grid's origin, padding east and south):
+ * samples (x, y) for x in [-1, w], y in [-1, h] (w, h <= size, the level's side; the whole
+ * level when both equal it), (w + 2)(h + 2) values, relief_qgrid_index() of each. */
 struct relief_qgrid {
-	uint32_t size;
+	uint32_t size, w, h;
 	int32_t *q;
 };
 
-int relief_qgrid_init(struct relief_qgrid *g, uint32_t size);
+static inline size_t relief_qgrid_index(const struct relief_qgrid *g, int x, int y)
+{
+	return (size_t)(y + 1) * (g->w + 2) + (size_t)(x + 1);
+}
+
+int relief_qgrid_init(struct relief_qgrid *g, uint32_t size, uint32_t w, uint32_t h);
 void relief_qgrid_finish(struct relief_qgrid *g);
 /* Copies patch (px, py)'s E x E block (with ring) out of a level grid. */
 void relief_qgrid_get_patch(const struct relief_qgrid *g, const struct relief_patch_geom *geom,

@@ -48,8 +48,9 @@ struct packer {
 	/* per patch results */
 	struct relief_patch_record *rec;
 	uint8_t **stream;
-	double *eps;    /* measured block errors, encoded when the file is assembled */
-	double *ranges; /* blocks' height ranges, likewise */
+	/* per patch with data (NULL for EMPTY ones): measured block errors and the blocks'
+	 * height ranges, encoded when the file is assembled */
+	double **eps, **ranges;
 	uint8_t **mask; /* coded masks of MASKED patches */
 	size_t *mask_size;
 
@@ -93,7 +94,7 @@ static int quantise_refined(void *ctx, size_t row2)
 		/* The root level is the root patch (ring included): valid samples are quantised,
 		 * no-data samples take the root coder's MED prediction, so their residual is 0.
 		 * Raster order matters here, so the root is done by one call. */
-		const size_t E = S + 2;
+		const size_t E = S + 2; /* the root's window is the whole level */
 		for (size_t i = 0; i < E * E; i++) {
 			int x = (int)(i % E) - 1, y = (int)(i / E) - 1;
 			g->q[i] = level_valid(p, 0, x, y) ? (int32_t)llround(level_height(p, 0, x, y) * inv)
@@ -104,35 +105,37 @@ static int quantise_refined(void *ctx, size_t row2)
 	}
 	const int32_t k = (int32_t)p->lay.ratio;
 	const struct relief_qgrid *pg = &p->q[l - 1];
-	int y = 2 * (int)row2;
-	for (int x = 0; x < (int)S; x += 2) {
-		int32_t qp = pg->q[(size_t)(y / 2 + 1) * (pg->size + 2) + x / 2 + 1], r = 0;
+	int y = 2 * (int)row2, last = (int)(g->w < S - 1 ? g->w : S - 1);
+	for (int x = 0; x <= last; x += 2) {
+		int32_t qp = pg->q[relief_qgrid_index(pg, x / 2, y / 2)], r = 0;
 		if (level_valid(p, l, x, y)) {
 			r = (int32_t)llround(level_height(p, l, x, y) * inv) - k * qp;
 			r = r < -1 ? -1 : r > 1 ? 1 : r;
 		}
-		g->q[(size_t)(y + 1) * (S + 2) + x + 1] = k * qp + r;
+		g->q[relief_qgrid_index(g, x, y)] = k * qp + r;
 	}
 	return 0;
 }
 
 /* Global bilinear prediction of a non-refined sample from the refined ones (index clamped
  * at the grid's edge), the value no-data samples take. Any fixed rule keeps every patch's
- * copy of a sample equal; this one makes most of their residuals 0. */
+ * copy of a sample equal; this one makes most of their residuals 0. In a window smaller
+ * than the level, the index is clamped at the window's edge too: the window's last column
+ * or row can then differ from the whole level's, which pack_windows() keeps clear of
+ * every value a patch reads. */
 static int32_t global_predict(const struct relief_qgrid *g, int x, int y)
 {
-	const int S = (int)g->size;
+	const int S = (int)g->size, xe = g->w < g->size ? (int)g->w : S - 1, ye = g->h < g->size ? (int)g->h : S - 1;
 	int x0 = x & 1 ? x - 1 : x, x1 = x & 1 ? x + 1 : x, y0 = y & 1 ? y - 1 : y, y1 = y & 1 ? y + 1 : y;
-	x0 = x0 < 0 ? 0 : x0; x1 = x1 > S - 1 ? S - 1 : x1;
-	y0 = y0 < 0 ? 0 : y0; y1 = y1 > S - 1 ? S - 1 : y1;
+	x0 = x0 < 0 ? 0 : x0; x1 = x1 > xe ? xe : x1;
+	y0 = y0 < 0 ? 0 : y0; y1 = y1 > ye ? ye : y1;
 	const int32_t *q = g->q;
-	size_t st = (size_t)S + 2;
-	int64_t sum = (int64_t)q[(y0 + 1) * st + x0 + 1] + q[(y0 + 1) * st + x1 + 1] + q[(y1 + 1) * st + x0 + 1] +
-	              q[(y1 + 1) * st + x1 + 1];
+	int64_t sum = (int64_t)q[relief_qgrid_index(g, x0, y0)] + q[relief_qgrid_index(g, x1, y0)] +
+	              q[relief_qgrid_index(g, x0, y1)] + q[relief_qgrid_index(g, x1, y1)];
 	return (int32_t)((sum + 2) >> 2);
 }
 
-/* Pass 2 (levels > 0): every other sample of row y in [-1, S], ring included:
+/* Pass 2 (levels > 0): every other sample of row y in [-1, h], ring included:
  * q = round(h / (2 delta)) where valid, the global prediction where not. */
 static int quantise_row(void *ctx, size_t row)
 {
@@ -142,8 +145,8 @@ static int quantise_row(void *ctx, size_t row)
 	const uint32_t S = g->size;
 	const double inv = 1.0 / (2.0 * p->lay.delta[l]);
 	int y = (int)row - 1;
-	int32_t *out = g->q + row * (S + 2);
-	for (int x = -1; x <= (int)S; x++) {
+	int32_t *out = g->q + relief_qgrid_index(g, -1, y);
+	for (int x = -1; x <= (int)g->w; x++) {
 		if (!(x & 1) && !(y & 1) && x >= 0 && y >= 0 && x < (int)S && y < (int)S)
 			continue; /* refined: pass 1 */
 		out[x + 1] = level_valid(p, l, x, y) ? (int32_t)llround(level_height(p, l, x, y) * inv)
@@ -163,10 +166,33 @@ static void measure_level_error(struct packer *p, uint32_t l)
 			size_t i = (size_t)Y * p->dem->width + X;
 			if (!p->dem->valid[i])
 				continue;
-			double e = fabs(p->dem->heights[i] - q2 * g->q[(Y / step + 1) * (g->size + 2) + X / step + 1]);
+			double e = fabs(p->dem->heights[i] - q2 * g->q[relief_qgrid_index(g, (int)(X / step), (int)(Y / step))]);
 			worst = e > worst ? e : worst;
 		}
 	p->level_err[l] = worst;
+}
+
+/* The window of each level the packer quantises (relief_qgrid): what the patches holding
+ * raster samples read, and what the next finer level's window needs. Level l's patches
+ * with a raster sample end at need_l = their last column + 1 (the ring); a window of
+ * width w holds the whole level's values at every column up to w - 1 (only the last can
+ * differ, global_predict()), given the coarser level's up to w / 2 (a refined sample takes
+ * its parent's). So w_l >= need_l + 1 and >= w_{l+1} / 2 + 1; one more of each is kept to
+ * spare (with neither, test_windows_change_nothing fails), or the level's side. Rows
+ * likewise. For a square raster every window is the whole level. */
+static void pack_windows(const struct relief_layout *lay, uint32_t width, uint32_t height, uint32_t win[][2])
+{
+	const uint32_t P = lay->geom.P, L = lay->levels, dims[2] = { width, height };
+	for (int l = (int)L - 1; l >= 0; l--) {
+		const uint64_t S = relief_level_size(lay, (uint32_t)l), step = 1ull << (L - 1 - (uint32_t)l);
+		for (int a = 0; a < 2; a++) {
+			uint64_t n = (dims[a] + step - 1) / step; /* level samples over the raster */
+			uint64_t need = ((n - 1) / (P - 1) + 1) * (P - 1) + 1, w = need + 2;
+			if ((uint32_t)l + 1 < L && w < win[l + 1][a] / 2 + 2)
+				w = win[l + 1][a] / 2 + 2;
+			win[l][a] = (uint32_t)(w < S ? w : S);
+		}
+	}
 }
 
 static int encode_patch(void *ctx, size_t id)
@@ -178,12 +204,19 @@ static int encode_patch(void *ctx, size_t id)
 	relief_patch_coords(&p->lay, (uint32_t)id, &l, &px, &py);
 	struct relief_patch_record *r = &p->rec[id];
 	memset(r, 0, sizeof(*r));
-
-	/* block, parent block, residuals (the root codes all E*E values as residuals) */
-	int32_t *block = malloc(sizeof(int32_t) * E * E * 3);
-	double *heights = malloc(sizeof(double) * P * P);
-	int8_t *labels = malloc(geom->n_labels);
 	int ret = 0;
+	int32_t *block = NULL;
+	double *heights = NULL;
+	int8_t *labels = NULL;
+	const uint64_t step = 1ull << (p->lay.levels - 1 - l);
+	if ((uint64_t)px * (P - 1) * step >= p->dem->width || (uint64_t)py * (P - 1) * step >= p->dem->height) {
+		r->flags = RELIEF_PATCH_EMPTY; /* beyond the raster, and beyond the level's window */
+		goto out;
+	}
+	/* block, parent block, residuals (the root codes all E*E values as residuals) */
+	block = malloc(sizeof(int32_t) * E * E * 3);
+	heights = malloc(sizeof(double) * P * P);
+	labels = malloc(geom->n_labels);
 	if (!block || !heights || !labels) {
 		ret = -ENOMEM;
 		goto out;
@@ -208,10 +241,15 @@ static int encode_patch(void *ctx, size_t id)
 	r->height_min = float_down(hmin);
 	r->height_max = relief_float_up(hmax);
 	r->error = relief_float_up(err);
-	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest,
-	                               p->eps + id * relief_block_errors_per_patch(P))) < 0)
+	p->eps[id] = calloc(relief_block_errors_per_patch(P), sizeof(double));
+	p->ranges[id] = calloc(relief_block_ranges_per_patch(P), sizeof(double));
+	if (!p->eps[id] || !p->ranges[id]) {
+		ret = -ENOMEM;
 		goto out;
-	relief_block_heights(&p->lay, heights, p->ranges + id * relief_block_ranges_per_patch(P));
+	}
+	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest, p->eps[id])) < 0)
+		goto out;
+	relief_block_heights(&p->lay, heights, p->ranges[id]);
 
 	/* Validity mask at this level's samples. */
 	uint8_t *mask = malloc((size_t)P * P);
@@ -333,8 +371,8 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		if (!(r->flags & RELIEF_PATCH_EMPTY)) {
 			uint8_t *be = img + h.block_errors_offset + slot++ * be_per;
 			for (size_t i = 0; i < ne; i++)
-				be[i] = relief_block_error_encode(p->eps[id * ne + i], p->lay.tolerance / 64.0);
-			const double *rg = p->ranges + id * nr;
+				be[i] = relief_block_error_encode(p->eps[id][i], p->lay.tolerance / 64.0);
+			const double *rg = p->ranges[id];
 			for (size_t i = 0; i < nr; i += 2)
 				be[ne + i / 2] = relief_block_range_encode(rg[i], r->height_min, r->height_max, false) |
 				                 relief_block_range_encode(rg[i + 1], r->height_min, r->height_max, true) << 4;
@@ -406,27 +444,34 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		ret = -ERANGE;
 		goto out;
 	}
-	const uint32_t n = p->lay.patch_count, P = p->lay.geom.P;
+	const uint32_t n = p->lay.patch_count;
 	p->orig = (struct relief_original){ dem->heights, dem->valid, dem->width, dem->height };
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
-	p->eps = calloc((size_t)n * relief_block_errors_per_patch(P), sizeof(double));
-	p->ranges = calloc((size_t)n * relief_block_ranges_per_patch(P), sizeof(double));
+	p->eps = calloc(n, sizeof(*p->eps));
+	p->ranges = calloc(n, sizeof(*p->ranges));
 	p->mask = calloc(n, sizeof(*p->mask));
 	p->mask_size = calloc(n, sizeof(*p->mask_size));
 	if (!p->rec || !p->stream || !p->eps || !p->ranges || !p->mask || !p->mask_size) {
 		ret = -ENOMEM;
 		goto out;
 	}
+	uint32_t win[RELIEF_MAX_LEVELS][2];
+	pack_windows(&p->lay, dem->width, dem->height, win);
 	for (uint32_t l = 0; l < p->lay.levels; l++) {
-		if ((ret = relief_qgrid_init(&p->q[l], relief_level_size(&p->lay, l))) < 0)
+		uint32_t S = relief_level_size(&p->lay, l);
+		if (opts->whole_levels)
+			win[l][0] = win[l][1] = S;
+		if ((ret = relief_qgrid_init(&p->q[l], S, win[l][0], win[l][1])) < 0)
 			goto out;
+		st.quantised_samples += (uint64_t)(win[l][0] + 2) * (win[l][1] + 2);
 		p->level = l;
 		if (l == 0) {
 			quantise_refined(p, 0);
 		} else {
-			relief_parallel_for((p->q[l].size + 1) / 2, opts->threads, quantise_refined, p);
-			relief_parallel_for(p->q[l].size + 2, opts->threads, quantise_row, p);
+			uint32_t last_row = p->q[l].h < S - 1 ? p->q[l].h : S - 1; /* of the refined rows */
+			relief_parallel_for(last_row / 2 + 1, opts->threads, quantise_refined, p);
+			relief_parallel_for(p->q[l].h + 2, opts->threads, quantise_row, p);
 		}
 		measure_level_error(p, l);
 	}
@@ -448,6 +493,10 @@ out:
 			free(p->stream[id]);
 		if (p->mask)
 			free(p->mask[id]);
+		if (p->eps)
+			free(p->eps[id]);
+		if (p->ranges)
+			free(p->ranges[id]);
 	}
 	free(p->mask);
 	free(p->mask_size);

@@ -1,7 +1,9 @@
-/* Building a .relief image from an elevation model: pyramid by decimation, hole filling,
- * per-level quantisation, patch coding, error bounds, container assembly. */
+/* Building a .relief image from an elevation model: pyramid by decimation, per-level
+ * quantisation over a window around the data (no-data samples predicted), patch coding,
+ * error bounds, container assembly. */
 #pragma once
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -16,11 +18,15 @@ struct relief_pack_options {
 	/* Called (from any worker thread, serialised) after each patch. */
 	void (*progress)(void *data, uint32_t done, uint32_t total, uint64_t bytes);
 	void *progress_data;
+	/* tests: quantise every level whole instead of its window around the data (the file
+	 * must come out the same byte for byte) */
+	bool whole_levels;
 };
 
 struct relief_pack_stats {
 	uint32_t levels, patches, empty_patches, masked_patches;
 	uint64_t bytes, stream_bytes;
+	uint64_t quantised_samples; /* in the levels' windows, rings included */
 	/* Largest |original - reconstruction| per level over valid samples, measured. */
 	double max_error[RELIEF_MAX_LEVELS];
 };

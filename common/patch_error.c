@@ -53,30 +53,32 @@ static inline double dmax(double a, double b) { return a > b ? a : b; }
 /* The largest distance between the block at level d (triangulated on every s-th patch
  * sample from its north-west sample b, row stride P, each patch cell `step` finest cells
  * wide) and the finest surface, over the block's live finest samples and cell centres
- * (`live`, (n + 1)^2, see below). Coarse cell by coarse cell, so that its corners are read
- * once; each finest sample belongs to the coarse cell to its south-east (the last cell
- * takes the block's east and south edges), each finest cell centre to the one holding it. */
+ * (`live`, (n + 1)^2, see below; none beyond column iw or row jh). Coarse cell by coarse
+ * cell, so that its corners are read once; each finest sample belongs to the coarse cell
+ * to its south-east (the last cell takes the block's east and south edges), each finest
+ * cell centre to the one holding it. */
 static double block_level_error(const double *b, uint32_t P, uint32_t s, uint32_t step, const uint8_t *live,
-                                uint32_t n, const struct relief_finest *fin, uint64_t X0, uint64_t Y0)
+                                uint32_t n, uint32_t iw, uint32_t jh, const struct relief_finest *fin, uint64_t X0,
+                                uint64_t Y0)
 {
 	const uint32_t C = s * step, cells = RELIEF_BLOCK_CELLS / s;
-	const size_t st = (size_t)fin->grid->size + 2;
+	const size_t st = (size_t)fin->grid->w + 2;
 	const double q2 = fin->q2;
 	double worst = 0.0;
-	for (uint32_t cj = 0; cj < cells; cj++)
-		for (uint32_t ci = 0; ci < cells; ci++) {
+	for (uint32_t cj = 0; cj < cells && cj * C <= jh; cj++)
+		for (uint32_t ci = 0; ci < cells && ci * C <= iw; ci++) {
 			const double *c = b + (size_t)cj * s * P + ci * s;
 			const double h00 = c[0], h10 = c[s], h01 = c[(size_t)s * P], h11 = c[(size_t)s * P + s];
 			const uint32_t jn = cj + 1 == cells ? C : C - 1, in = ci + 1 == cells ? C : C - 1;
-			for (uint32_t j = 0; j <= jn; j++) {
+			for (uint32_t j = 0; j <= jn && cj * C + j <= jh; j++) {
 				const uint32_t J = cj * C + j;
 				const double v = (double)j / C, vc = ((double)j + 0.5) / C;
-				for (uint32_t i = 0; i <= in; i++) {
+				for (uint32_t i = 0; i <= in && ci * C + i <= iw; i++) {
 					const uint32_t I = ci * C + i;
 					const uint8_t lv = live[(size_t)J * (n + 1) + I];
 					if (!lv)
 						continue;
-					const int32_t *q = fin->grid->q + (Y0 + J + 1) * st + X0 + I + 1;
+					const int32_t *q = fin->grid->q + relief_qgrid_index(fin->grid, (int)(X0 + I), (int)(Y0 + J));
 					const double h = q2 * q[0], u = (double)i / C;
 					for (int dc = 0; dc < 2; dc++)
 						worst = dmax(worst, fabs(h - relief_cell_value(h00, h10, h01, h11, u, v, dc)));
@@ -109,9 +111,21 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 	for (uint32_t by = 0; by < lay->blocks; by++)
 		for (uint32_t bx = 0; bx < lay->blocks; bx++) {
 			const uint64_t X0 = ((uint64_t)px * (P - 1) + bx * B) * step, Y0 = ((uint64_t)py * (P - 1) + by * B) * step;
-			memset(live, 0, (size_t)(n + 1) * (n + 1));
-			for (uint32_t j = 0; j < n; j++)
-				for (uint32_t i = 0; i < n; i++) {
+			double *e = eps + ((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS;
+			if (X0 >= fin->orig->w || Y0 >= fin->orig->h) { /* beyond the raster: no valid sample */
+				for (uint32_t d = 0; d < RELIEF_BLOCK_LEVELS; d++)
+					e[d] = 0.0;
+				continue;
+			}
+			/* A cell with a valid corner lies within the raster (i < iw, j < jh), its
+			 * corners up to iw, jh: only that part of the block is looked at, so that a
+			 * coarse block over a raster's padding costs what its data does. */
+			const uint32_t iw = (uint32_t)(fin->orig->w - X0 < n ? fin->orig->w - X0 : n);
+			const uint32_t jh = (uint32_t)(fin->orig->h - Y0 < n ? fin->orig->h - Y0 : n);
+			for (uint32_t j = 0; j <= jh; j++)
+				memset(live + (size_t)j * (n + 1), 0, iw + 1);
+			for (uint32_t j = 0; j < jh; j++)
+				for (uint32_t i = 0; i < iw; i++) {
 					bool any = false;
 					for (uint32_t k = 0; k < 4 && !any; k++)
 						any = finest_valid(fin->orig, X0 + i + (k & 1), Y0 + j + (k >> 1));
@@ -125,8 +139,7 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 				}
 			const double *b = ph + (size_t)by * B * P + bx * B;
 			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++)
-				eps[((size_t)by * lay->blocks + bx) * RELIEF_BLOCK_LEVELS + (d - 1)] =
-					block_level_error(b, P, 1u << d, step, live, n, fin, X0, Y0);
+				e[d - 1] = block_level_error(b, P, 1u << d, step, live, n, iw, jh, fin, X0, Y0);
 		}
 	free(live);
 	return 0;

@@ -152,8 +152,8 @@ int cmd_pack(int argc, char **argv)
 	struct relief_pack_stats st;
 	ret = relief_pack_memory(&dem, &po, &img, &size, &st);
 	if (ret == -ENOMEM) {
-		/* The padded square, not the raster, sets the memory (docs/format.md, "Known limits"). */
-		dem_pack_explain("pack", in, &dem, po.patch, "out of memory", 0);
+		/* The estimate missed: say what it was (docs/format.md, "Known limits"). */
+		dem_pack_explain("pack", in, &dem, po.patch, "out of memory", 0, NULL);
 		relief_dem_finish(&dem);
 		return 1;
 	}

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -322,35 +323,62 @@ void dem_report_dropped(const char *cmd, const char *path, const struct relief_d
 		        d->dropped_row);
 }
 
-double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side)
+/* What packing raster d at `patch` samples a side holds at peak, in bytes: the quantised
+ * levels' windows around the data (about 6 bytes per finest window sample), the raster's
+ * arrays (about 12 per sample), the per-patch records of the whole tree (about 100 per
+ * patch) and 64 MB for the program, as measured, rounded up (docs/format.md, "Known
+ * limits"); with the parts it comes from. */
+struct pack_need {
+	double side;         /* the level grid's side */
+	double window[2];    /* the finest level's quantised window (pack.c, pack_windows()) */
+	double patches;      /* in the tree, EMPTY ones included */
+	double bytes;
+};
+
+static struct pack_need pack_need(const struct relief_dem *d, uint32_t patch)
 {
+	struct pack_need n;
 	uint32_t levels = relief_layout_levels_for(patch, d->width, d->height); /* < 64 */
-	double s = ldexp((double)(patch - 1), (int)levels - 1) + 1;
-	*side = s;
-	return 6.0 * s * s + 12.0 * (double)d->width * d->height;
+	n.side = ldexp((double)(patch - 1), (int)levels - 1) + 1;
+	const double dims[2] = { d->width, d->height };
+	for (int a = 0; a < 2; a++)
+		n.window[a] = fmin(n.side, ceil(dims[a] / (patch - 1)) * (patch - 1) + 3);
+	n.patches = (ldexp(1.0, 2 * (int)levels) - 1) / 3;
+	n.bytes = 6.0 * n.window[0] * n.window[1] + 12.0 * dims[0] * dims[1] + 100.0 * n.patches + 64e6;
+	return n;
 }
 
 void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch, const char *why,
-                      double have)
+                      double have, const char *who)
 {
-	double side, need = dem_pack_bytes(d, patch, &side);
-	char where[64] = "";
+	struct pack_need n = pack_need(d, patch);
+	char where[96] = "";
 	if (have > 0)
-		snprintf(where, sizeof(where), " where this machine has %.1f GB", have / 1e9);
+		snprintf(where, sizeof(where), " where %s %.1f GB", who, have / 1e9);
 	fprintf(stderr,
-	        "relief %s: %s: %s: the quadtree is square, so this %u x %u raster is packed in a %.0f x %.0f grid "
-	        "(%.3g G samples), and packing that holds about %.1f GB (6 bytes per grid sample, 12 per raster "
-	        "sample)%s; see docs/format.md, \"Known limits\"\n",
-	        cmd, path, why, d->width, d->height, side, side, side * side / 1e9, need / 1e9, where);
+	        "relief %s: %s: %s: this %u x %u raster makes a quadtree of %.0f patches over a %.0f x %.0f grid, "
+	        "of which the %.0f x %.0f samples around the data are quantised, and packing that holds about %.1f GB "
+	        "(6 bytes per quantised sample, 12 per raster sample, 100 per patch)%s; see docs/format.md, "
+	        "\"Known limits\"\n",
+	        cmd, path, why, d->width, d->height, n.patches, n.side, n.side, n.window[0], n.window[1], n.bytes / 1e9,
+	        where);
 }
 
 bool dem_pack_fits(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch)
 {
-	double side, need = dem_pack_bytes(d, patch, &side);
+	double need = pack_need(d, patch).bytes, have = INFINITY;
+	const char *who = "this machine has";
 	long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-	if (pages <= 0 || page <= 0 || need <= (double)pages * (double)page)
+	if (pages > 0 && page > 0)
+		have = (double)pages * (double)page;
+	struct rlimit rl; /* an address-space limit (ulimit -v) below that binds first */
+	if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY && (double)rl.rlim_cur < have) {
+		have = (double)rl.rlim_cur;
+		who = "this process may use";
+	}
+	if (need <= have)
 		return true;
-	dem_pack_explain(cmd, path, d, patch, "too large to pack here", (double)pages * (double)page);
+	dem_pack_explain(cmd, path, d, patch, "too large to pack here", have, who);
 	return false;
 }
 

@@ -34,17 +34,15 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
 /* Says on stderr, as "relief CMD: PATH: ...", how many samples the import dropped as no
  * data because they were not heights (relief_dem.dropped), if any. */
 void dem_report_dropped(const char *cmd, const char *path, const struct relief_dem *d);
-/* What packing raster d at `patch` samples a side holds at peak, in bytes: the padded
- * square grid's arrays (about 6 bytes per grid sample: the quantised levels) and the
- * raster's (about 12 per sample), as measured, rounded up (docs/format.md, "Known
- * limits"); *side receives the grid's side. */
-double dem_pack_bytes(const struct relief_dem *d, uint32_t patch, double *side);
-/* Says on stderr "relief CMD: PATH: WHY: ..." with the padded grid and that estimate, and
- * the machine's memory `have` (bytes) when it is above 0. */
+/* Says on stderr "relief CMD: PATH: WHY: ..." with the quadtree, the quantised window and
+ * what packing raster d at `patch` samples a side holds at peak (about 6 bytes per
+ * quantised sample, 12 per raster sample and 100 per patch of the tree, as measured:
+ * docs/format.md, "Known limits"), and the memory `have` (bytes) when it is above 0, as
+ * "where WHO N GB". */
 void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch, const char *why,
-                      double have);
-/* Says why on stderr ("relief CMD: PATH: ...") and returns false when that is more than
- * the machine's physical memory, so that packing is refused at once instead of failing
+                      double have, const char *who);
+/* Says why on stderr ("relief CMD: PATH: ...") and returns false when that estimate is
+ * more than the machine's physical memory or the process's address-space limit, so that packing is refused at once instead of failing
  * after minutes or being killed when the memory runs out. */
 bool dem_pack_fits(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch);
 /* The same from a raster already open (a GDALDatasetH; the caller keeps and closes it;

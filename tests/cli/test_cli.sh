@@ -139,23 +139,27 @@ check pack-raw-wide 1 "$relief" pack "$tmp/odd.f32" "$tmp/x.relief" -t 1 --raw-s
 expect_text pack-raw-wide-named "20000x3 float32 samples need 240000"
 check pack-raw-too-wide 2 "$relief" pack "$tmp/odd.f32" "$tmp/x.relief" -t 1 --raw-size 4194305x3 --raw-type float32 --spacing 30
 expect_text pack-raw-too-wide-named "both in [1, 4194304]"
-# A raster whose padded square cannot fit in this machine's memory is refused at once,
-# naming the grid: 262145 x 2 samples pack in a 262145 x 262145 grid, about 756 GB.
-head -c 2097160 /dev/zero >"$tmp/strip.f32"
-check pack-too-large 1 "$relief" pack "$tmp/strip.f32" "$tmp/x.relief" -t 1 --raw-size 262145x2 --raw-type float32 --spacing 1
-expect_text pack-too-large-named "too large to pack here: the quadtree is square, so this 262145 x 2 raster is packed in a 262145 x 262145 grid"
-check bench-codec-too-large 1 "$relief" bench codec "$tmp/strip.f32" --raw-size 262145x2 --raw-type float32 --spacing 1 --runs 1
-expect_text bench-codec-too-large-named "relief bench codec: $tmp/strip.f32: too large to pack here"
-# Out of memory names the padded square: 20001 x 3 samples pack in a 32769 x 32769 grid,
-# which 1 GB of address space cannot hold. (Not under a sanitizer, whose shadow memory
-# needs more address space than that.)
+# A raster whose quadtree cannot fit in this machine's memory is refused at once, naming
+# it: 1048576 x 2 samples at 65-sample patches make a tree of 357,913,941 patches (15
+# levels over a 1048577 x 1048577 grid), about 36 GB of per-patch records alone.
+head -c 8388608 /dev/zero >"$tmp/strip.f32"
+check pack-too-large 1 "$relief" pack "$tmp/strip.f32" "$tmp/x.relief" -t 1 --raw-size 1048576x2 --raw-type float32 \
+	--spacing 1 --patch 65
+expect_text pack-too-large-named "too large to pack here: this 1048576 x 2 raster makes a quadtree of 357913941 patches over a 1048577 x 1048577 grid"
+# An address-space limit binds the same way: at 129-sample patches the strip makes
+# 89,478,485 patches, about 9 GB estimated, which fits this machine but not 2 GB of
+# address space. (Not under a sanitizer, whose shadow memory needs more address space
+# than that.)
 if ldd "$relief" | grep -q 'lib[at]san'; then
-	echo "skip pack-out-of-memory: sanitizer build"
+	echo "skip pack-address-space, bench-codec-address-space: sanitizer build"
 else
-	head -c 240012 /dev/zero >"$tmp/wide.f32"
-	check pack-out-of-memory 1 bash -c 'ulimit -v 1000000 && exec "$@"' sh "$relief" pack "$tmp/wide.f32" "$tmp/x.relief" \
-		-t 1 -q --raw-size 20001x3 --raw-type float32 --spacing 1
-	expect_text pack-out-of-memory-named "packed in a 32769 x 32769 grid (1.07 G samples"
+	check pack-address-space 1 bash -c 'ulimit -v 2000000 && exec "$@"' sh "$relief" pack "$tmp/strip.f32" "$tmp/x.relief" \
+		-t 1 -q --raw-size 1048576x2 --raw-type float32 --spacing 1
+	expect_text pack-address-space-named "too large to pack here: this 1048576 x 2 raster makes a quadtree of 89478485 patches"
+	expect_text pack-address-space-limit "where this process may use 2.0 GB"
+	check bench-codec-address-space 1 bash -c 'ulimit -v 2000000 && exec "$@"' sh "$relief" bench codec "$tmp/strip.f32" \
+		--raw-size 1048576x2 --raw-type float32 --spacing 1 --runs 1
+	expect_text bench-codec-address-space-named "relief bench codec: $tmp/strip.f32: too large to pack here"
 fi
 # bad input keeps what is already stored
 cp "$tmp/lux.relief" "$tmp/keep.relief"

@@ -3,7 +3,8 @@
  * patches agree bit for bit on shared samples; Err(P) bounds the patch against the
  * original and the block errors bound each simplified block against the finest decoded
  * surface (checked with an independent evaluator of the triangulated surfaces);
- * packing is deterministic across thread counts; no-data stays no-data. */
+ * packing is deterministic across thread counts; no-data stays no-data; quantising each
+ * level over a window around the data changes no byte. */
 #include <errno.h>
 #include <math.h>
 
@@ -294,6 +295,60 @@ static void test_deterministic(void **state)
 	relief_dem_finish(&a.dem);
 }
 
+/* A W x H raster 10 m apart, its own heights (a smooth swell plus a hash's noise), with
+ * no-data in a disc, a corner and every 211th column. */
+static void synthetic_dem(struct relief_dem *d, uint32_t W, uint32_t H)
+{
+	*d = (struct relief_dem){ .width = W, .height = H, .spacing_x = 10, .spacing_y = 10, .origin_y = 10.0 * (H - 1) };
+	d->heights = malloc(sizeof(float) * W * H);
+	d->valid = malloc((size_t)W * H);
+	assert_non_null(d->heights);
+	assert_non_null(d->valid);
+	for (uint32_t y = 0; y < H; y++)
+		for (uint32_t x = 0; x < W; x++) {
+			uint32_t k = y * W + x, hsh = k * 2654435761u;
+			size_t i = (size_t)y * W + x;
+			d->heights[i] = (float)(400 + 150 * sin(x / 37.0) * cos(y / 23.0) + (hsh >> 24) * 0.05);
+			double dx = x - 0.7 * W, dy = y - 0.5 * H;
+			d->valid[i] = !(dx * dx + dy * dy < 0.01 * (double)H * H || (x > W - W / 10 && y < H / 10) || x % 211 == 7);
+		}
+}
+
+/* The packer quantises each level over a window around the data, not the padded square:
+ * files of long, narrow and tall rasters with holes, and of Mont Blanc (whose raster
+ * leaves two fifths of its grid as padding), at every patch size, equal byte for byte
+ * those quantised over whole levels, and the windows are smaller. */
+static void test_windows_change_nothing(void **state)
+{
+	struct { uint32_t w, h, patch; } cases[] = { { 3001, 40, 65 }, { 3001, 40, 129 }, { 37, 1500, 257 }, { 700, 300, 65 } };
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]) + 1; c++) {
+		struct relief_dem dem;
+		uint32_t patch = 129;
+		if (c < sizeof(cases) / sizeof(cases[0])) {
+			synthetic_dem(&dem, cases[c].w, cases[c].h);
+			patch = cases[c].patch;
+		} else {
+			test_dem_load(DEM_ALPS, &dem);
+		}
+		uint8_t *img[2];
+		size_t size[2];
+		struct relief_pack_stats st[2];
+		for (int whole = 0; whole < 2; whole++) {
+			struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = 0.5, .whole_levels = whole };
+			assert_int_equal(relief_pack_memory(&dem, &o, &img[whole], &size[whole], &st[whole]), 0);
+		}
+		print_message("%u x %u at %u: %zu bytes, %llu samples quantised in windows, %llu whole\n", dem.width,
+		              dem.height, patch, size[0], (unsigned long long)st[0].quantised_samples,
+		              (unsigned long long)st[1].quantised_samples);
+		assert_int_equal(size[0], size[1]);
+		assert_memory_equal(img[0], img[1], size[0]);
+		assert_true(st[0].quantised_samples < st[1].quantised_samples);
+		free(img[0]);
+		free(img[1]);
+		relief_dem_finish(&dem);
+	}
+}
+
 /* No-data never becomes a height: the decoded mask equals the input's validity at every
  * level, and decoded heights are NaN exactly there. */
 static void test_nodata_stays_nodata(void **state)
@@ -375,6 +430,7 @@ int main(void)
 		cmocka_unit_test(test_ratio3_and_patch_sizes),
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_nodata_stays_nodata),
+		cmocka_unit_test(test_windows_change_nothing),
 		cmocka_unit_test(test_bad_inputs),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
