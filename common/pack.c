@@ -120,12 +120,14 @@ static int quantise_refined(void *ctx, size_t row2)
 /* Global bilinear prediction of a non-refined sample from the refined ones (index clamped
  * at the grid's edge), the value no-data samples take. Any fixed rule keeps every patch's
  * copy of a sample equal; this one makes most of their residuals 0. In a window smaller
- * than the level, the index is clamped at the window's edge too: the window's last column
- * or row can then differ from the whole level's, which pack_windows() keeps clear of
- * every value a patch reads. */
+ * than the level, the index is clamped at the window's last refined (even) column or row
+ * (only refined samples are read: pass 2 writes the others concurrently), so the window's
+ * last column or row can differ from the whole level's, which pack_windows() keeps clear
+ * of every value a patch reads. */
 static int32_t global_predict(const struct relief_qgrid *g, int x, int y)
 {
-	const int S = (int)g->size, xe = g->w < g->size ? (int)g->w : S - 1, ye = g->h < g->size ? (int)g->h : S - 1;
+	const int S = (int)g->size; /* odd: S - 1 is refined */
+	const int xe = g->w < g->size ? (int)g->w & ~1 : S - 1, ye = g->h < g->size ? (int)g->h & ~1 : S - 1;
 	int x0 = x & 1 ? x - 1 : x, x1 = x & 1 ? x + 1 : x, y0 = y & 1 ? y - 1 : y, y1 = y & 1 ? y + 1 : y;
 	x0 = x0 < 0 ? 0 : x0; x1 = x1 > xe ? xe : x1;
 	y0 = y0 < 0 ? 0 : y0; y1 = y1 > ye ? ye : y1;
