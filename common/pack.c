@@ -180,8 +180,8 @@ static void measure_level_error(struct packer *p, uint32_t l)
  * width w holds the whole level's values at every column up to w - 1 (only the last can
  * differ, global_predict()), given the coarser level's up to w / 2 (a refined sample takes
  * its parent's). So w_l >= need_l + 1 and >= w_{l+1} / 2 + 1; one more of each is kept to
- * spare (with neither, test_windows_change_nothing fails), or the level's side. Rows
- * likewise. For a square raster every window is the whole level. */
+ * spare (with w_l = need_l the tests fail; with both bounds exact they pass), or the
+ * level's side. Rows likewise. For a square raster every window is the whole level. */
 static void pack_windows(const struct relief_layout *lay, uint32_t width, uint32_t height, uint32_t win[][2])
 {
 	const uint32_t P = lay->geom.P, L = lay->levels, dims[2] = { width, height };
