@@ -233,6 +233,60 @@ static void test_hysteresis_matches_cpu(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* A deep tree: a 655 km x 640 m corridor, 65537 x 65 samples 10 m apart at 65-sample
+ * patches, is a tree of 11 levels and 1,398,101 patches, almost all EMPTY (packed over a
+ * window around the data: docs/format.md, "Known limits"). The selection visits only
+ * its frontiers level by level; from views along the corridor, each drawn until nothing
+ * more is asked for, a fresh view's selection equals the CPU reference's, with the
+ * forced-split pre-pass over levels 1 .. 5 on, and patches of level 8 or finer are
+ * drawn (of 10 in the nearest view). Negative control, run when the test was written: a
+ * selection that pushes no children below level 8 fails it (0 requests against the CPU's
+ * 8). */
+static void test_deep_tree_matches_cpu(void **state)
+{
+	enum { W = 65537, H = 65 };
+	struct relief_dem dem = { .width = W, .height = H, .spacing_x = 10, .spacing_y = 10, .origin_y = 10.0 * (H - 1) };
+	dem.heights = malloc(sizeof(float) * W * H);
+	dem.valid = malloc((size_t)W * H);
+	assert_non_null(dem.heights);
+	assert_non_null(dem.valid);
+	memset(dem.valid, 1, (size_t)W * H);
+	for (uint32_t y = 0; y < H; y++)
+		for (uint32_t x = 0; x < W; x++)
+			dem.heights[(size_t)y * W + x] = (float)(300 + 250 * sin(x / 310.0) + 40 * sin(x / 23.0) * cos(y / 9.0));
+	struct scene s;
+	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
+	relief_dem_finish(&dem);
+	assert_int_equal(s.f->hdr.levels, 11);
+	assert_int_equal(s.f->hdr.patch_count, 1398101);
+	const double along[] = { 2000, 150000, 400000, 640000 };
+	for (size_t i = 0; i < sizeof(along) / sizeof(along[0]); i++) {
+		struct relief_view v = {
+			.eye = { along[i], 320, 900 + 300 * (double)i },
+			.target = { along[i] + (i % 2 ? -4000 : 4000), 320, 200 },
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 2.0,
+		};
+		float *depth = malloc(sizeof(float) * 320 * 180);
+		struct relief_terrain_stats st;
+		render(&s, &v, depth, &st);
+		uint32_t terrain = 0;
+		for (size_t k = 0; k < 320 * 180; k++)
+			terrain += depth[k] > 0.0f;
+		free(depth);
+		relief_terrain_view_destroy(s.view);
+		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 100 + i, NULL, &st), 0);
+		assert_true(gpu_matches_cpu(&s, &v, &st) > 0);
+		uint32_t n, *ids = malloc(4 * s.f->hdr.patch_count), mask = drawn_levels(&s, ids, &n);
+		free(ids);
+		print_message("corridor at %.0f m: %u terrain pixels, levels drawn 0x%x\n", along[i], terrain, mask);
+		assert_true(terrain > 320 * 180 / 20);
+		assert_true(mask >= 1u << 8); /* the deep levels are drawn */
+	}
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* Requests look ahead: from a cold cache, the first frame asks for the whole tree the view
  * draws once everything has arrived, down to the finest level (not one level per frame),
  * and the GPU's requests equal the CPU reference's, there and with part of the tree
@@ -847,6 +901,7 @@ int main(void)
 		cmocka_unit_test(test_view_axes),
 		cmocka_unit_test(test_gpu_matches_cpu),
 		cmocka_unit_test(test_hysteresis_matches_cpu),
+		cmocka_unit_test(test_deep_tree_matches_cpu),
 		cmocka_unit_test(test_requests_look_ahead),
 		cmocka_unit_test(test_views_share_cache),
 		cmocka_unit_test(test_near_detail_takes_layers),
