@@ -72,12 +72,13 @@ bool wants_split(uint l, uint id, float d)
 
 bool child_missing(uint c) { return info[c].skirt >= 0.0 && layer_of[c] < 0; }
 
-// Appends the four children of patch (l, px, py) to level l + 1's frontier.
-void push_children(uint l, uint px, uint py, bool reachable, float d)
+// Appends the four children of a patch of level l (the first c0, the row below it at
+// c0 + row) to level l + 1's frontier.
+void push_children(uint l, uint c0, uint row, bool reachable, float d)
 {
 	uint n = atomicAdd(passes[l + 1u].w, 4u);
 	atomicMax(passes[l + 1u].x, (n + 4u + 63u) / 64u);
-	uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l, at = first_id(l + 1u) + n;
+	uint at = first_id(l + 1u) + n;
 	uint mark = reachable ? 0x80000000u : 0u, dist = floatBitsToUint(d);
 	frontier[at] = uvec2(c0 | mark, dist);
 	frontier[at + 1u] = uvec2((c0 + 1u) | mark, dist);
@@ -119,7 +120,7 @@ void main()
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
 		bool there = !child_missing(c0) && !child_missing(c0 + 1u) && !child_missing(c0 + row) &&
 		             !child_missing(c0 + row + 1u);
-		push_children(l, px, py, reachable && there, d);
+		push_children(l, c0, row, reachable && there, d);
 		if (reachable && there)
 			return; // the children draw this area
 	}
