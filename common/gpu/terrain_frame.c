@@ -253,7 +253,6 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		return ret;
 	v->pending = cmd;
 	v->gpu_cull = gpu_cull;
-	v->cpu_cull = cpu_cull;
 	v->parity ^= 1;
 	relief_patch_cache_hold(t->cache);
 	return 0;
@@ -277,11 +276,11 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	relief_patch_cache_release(t->cache);
 	if (ret < 0)
 		return ret;
-	const bool gpu_cull = v->gpu_cull, cpu_cull = v->cpu_cull;
+	const bool gpu_cull = v->gpu_cull;
 	const struct counters *c = v->read_counters.map;
 	struct relief_terrain_stats s = {
 		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
-		.face_culled = gpu_cull ? c->face_culled != 0 : cpu_cull,
+		.face_culled = c->draw_culled != 0, /* the decision the draws used */
 		.cull_height = gpu_cull && c->found ? c->near_high : NAN,
 		.clipped_quads = c->draw_split[3],
 	};

@@ -170,7 +170,7 @@ struct relief_terrain_view {
 	VkCommandBuffer pending;
 	bool captured; /* pending is a capture's (relief_vk_capture_begin()), not this view's to free */
 	VkFence fence;
-	bool gpu_cull, cpu_cull;
+	bool gpu_cull; /* the GPU decided whether back faces were culled (lod_commands.comp) */
 };
 
 /* One global memory barrier between two stage masks. */
