@@ -77,6 +77,13 @@ static inline double level_height(const struct packer *p, uint32_t l, int x, int
 	return p->dem->heights[(size_t)y * step * p->dem->width + (size_t)x * step];
 }
 
+/* The last refined (even) index along a window side of n samples of a level of side S
+ * (odd): the last inside both, rounded down to even. */
+static inline uint32_t last_refined(uint32_t n, uint32_t S)
+{
+	return (n < S - 1 ? n : S - 1) & ~1u;
+}
+
 /* Level quantisation, pass 1: the refined samples (x, y even, inside), row 2*row2.
  * Level 0 quantises every valid sample (ring included).
  * Level l > 0 refines the parent: q = k q_parent + r, r clamped to {-1, 0, 1}. For k = 2
@@ -105,7 +112,7 @@ static int quantise_refined(void *ctx, size_t row2)
 	}
 	const int32_t k = (int32_t)p->lay.ratio;
 	const struct relief_qgrid *pg = &p->q[l - 1];
-	int y = 2 * (int)row2, last = (int)(g->w < S - 1 ? g->w : S - 1);
+	int y = 2 * (int)row2, last = (int)last_refined(g->w, S);
 	for (int x = 0; x <= last; x += 2) {
 		int32_t qp = pg->q[relief_qgrid_index(pg, x / 2, y / 2)], r = 0;
 		if (level_valid(p, l, x, y)) {
@@ -126,8 +133,7 @@ static int quantise_refined(void *ctx, size_t row2)
  * of every value a patch reads. */
 static int32_t global_predict(const struct relief_qgrid *g, int x, int y)
 {
-	const int S = (int)g->size; /* odd: S - 1 is refined */
-	const int xe = g->w < g->size ? (int)g->w & ~1 : S - 1, ye = g->h < g->size ? (int)g->h & ~1 : S - 1;
+	const int xe = (int)last_refined(g->w, g->size), ye = (int)last_refined(g->h, g->size);
 	int x0 = x & 1 ? x - 1 : x, x1 = x & 1 ? x + 1 : x, y0 = y & 1 ? y - 1 : y, y1 = y & 1 ? y + 1 : y;
 	x0 = x0 < 0 ? 0 : x0; x1 = x1 > xe ? xe : x1;
 	y0 = y0 < 0 ? 0 : y0; y1 = y1 > ye ? ye : y1;
@@ -471,8 +477,7 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		if (l == 0) {
 			quantise_refined(p, 0);
 		} else {
-			uint32_t last_row = p->q[l].h < S - 1 ? p->q[l].h : S - 1; /* of the refined rows */
-			relief_parallel_for(last_row / 2 + 1, opts->threads, quantise_refined, p);
+			relief_parallel_for(last_refined(p->q[l].h, S) / 2 + 1, opts->threads, quantise_refined, p);
 			relief_parallel_for(p->q[l].h + 2, opts->threads, quantise_row, p);
 		}
 		measure_level_error(p, l);
