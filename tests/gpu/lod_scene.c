@@ -171,6 +171,16 @@ uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const str
 	return ng;
 }
 
+uint32_t fresh_view_matches_cpu(struct scene *s, const struct relief_view *v, uint64_t frame,
+                                const struct relief_draw_options *opts)
+{
+	relief_terrain_view_destroy(s->view);
+	assert_int_equal(relief_terrain_view_create(s->terrain, &s->view), 0);
+	struct relief_terrain_stats st;
+	assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame, opts, &st), 0);
+	return gpu_matches_cpu(s, v, &st);
+}
+
 /* The finest level and the two depth images of a bound scene whose scene is open. */
 static void bound_buffers(struct bound_scene *b)
 {

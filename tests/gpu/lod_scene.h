@@ -75,6 +75,10 @@ uint32_t drawn_levels(const struct scene *s, uint32_t *ids, uint32_t *n);
  * patches): the same patches and as many requests (st: that frame's stats). Returns the
  * patch count. */
 uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const struct relief_terrain_stats *st);
+/* The same for v drawn (frame `frame`, options `opts`) by a new view that replaces the
+ * scene's, so that nothing is split before. */
+uint32_t fresh_view_matches_cpu(struct scene *s, const struct relief_view *v, uint64_t frame,
+                                const struct relief_draw_options *opts);
 
 struct pose {
 	double eye[3], at[3];

@@ -355,11 +355,7 @@ static void test_level_jumps_of_five(void **state)
 		              sweep[i], v.tau, nd, jump, holes);
 		assert_int_equal(holes, 0);
 		assert_true(jump >= 3 && jump <= 4);
-		/* A fresh view (nothing split) against the CPU reference. */
-		relief_terrain_view_destroy(s.view);
-		assert_int_equal(relief_terrain_view_create(s.terrain, &s.view), 0);
-		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 200 + i, &bare, &st), 0);
-		gpu_matches_cpu(&s, &v, &st);
+		fresh_view_matches_cpu(&s, &v, 200 + i, &bare);
 	}
 	free(ids);
 	free(depth);
