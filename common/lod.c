@@ -175,13 +175,16 @@ static bool wants_split(float err, float tau, bool was_split)
 	return err > tau || (was_split && err > RELIEF_LOD_MERGE * tau);
 }
 
-/* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit. */
+/* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit, or is forced
+ * to (bit 1 of `forced[id]`). */
 static bool raw_wish(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
-                     const uint8_t *split_prev, uint32_t l, uint32_t x, uint32_t y)
+                     const uint8_t *split_prev, const uint8_t *forced, uint32_t l, uint32_t x, uint32_t y)
 {
 	if (l + 1 >= f->layout.levels)
 		return false;
 	uint32_t id = relief_patch_id(l, x, y);
+	if (forced[id] & 2)
+		return true;
 	struct relief_box box;
 	relief_patch_box(f, o, id, &box);
 	struct relief_patch_record rec;
@@ -191,15 +194,12 @@ static bool raw_wish(const struct relief_file *f, const struct relief_view_origi
 	return wants_split(err, tau, split_prev[id]);
 }
 
-/* shaders/lod_force.comp's twin: whether patch id, of level 1 .. L - 6, is made to split
+/* shaders/lod_force.comp's twin: whether patch id, of level l in 1 .. L - 6, must split
  * because beside one of its sides a chain of patches of levels l .. l + 4 along the border
- * each wants to split (a patch 5 levels finer would be drawn there). */
+ * each wants to split or is forced to (a patch 5 levels finer would be drawn there). */
 static bool forced_split(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
-                         const uint8_t *split_prev, uint32_t id)
+                         const uint8_t *split_prev, const uint8_t *forced, uint32_t id)
 {
-	const uint32_t L = f->layout.levels;
-	if (L < 7 || id == 0 || id >= relief_level_first_id(L - 5))
-		return false;
 	uint32_t l, px, py;
 	relief_patch_coords(&f->layout, id, &l, &px, &py);
 	const int dirs[4][2] = { { 0, -1 }, { 0, 1 }, { -1, 0 }, { 1, 0 } }; /* north, south, west, east */
@@ -207,7 +207,7 @@ static bool forced_split(const struct relief_file *f, const struct relief_view_o
 		int64_t qx = (int64_t)px + dirs[s][0], qy = (int64_t)py + dirs[s][1], n = (int64_t)1 << l;
 		if (qx < 0 || qy < 0 || qx >= n || qy >= n)
 			continue;
-		uint32_t chain = raw_wish(f, o, kappa, tau, split_prev, l, (uint32_t)qx, (uint32_t)qy);
+		uint32_t chain = raw_wish(f, o, kappa, tau, split_prev, forced, l, (uint32_t)qx, (uint32_t)qy);
 		for (uint32_t k = 1; k <= 4 && chain; k++) {
 			uint32_t m = 1u << k, next = 0;
 			for (uint32_t i = 0; i < m; i++) {
@@ -215,7 +215,7 @@ static bool forced_split(const struct relief_file *f, const struct relief_view_o
 					continue;
 				uint32_t cx = s == 2 ? (uint32_t)qx * m + m - 1 : s == 3 ? (uint32_t)qx * m : (uint32_t)qx * m + i;
 				uint32_t cy = s == 0 ? (uint32_t)qy * m + m - 1 : s == 1 ? (uint32_t)qy * m : (uint32_t)qy * m + i;
-				if (raw_wish(f, o, kappa, tau, split_prev, l + k, cx, cy))
+				if (raw_wish(f, o, kappa, tau, split_prev, forced, l + k, cx, cy))
 					next |= 1u << i;
 			}
 			chain = next;
@@ -224,6 +224,28 @@ static bool forced_split(const struct relief_file *f, const struct relief_view_o
 			return true;
 	}
 	return false;
+}
+
+/* Sets bit 1 of forced[id] for every patch of levels 1 .. L - 6 that must split, to a fixed
+ * point: a forced split counts as a wish in the chains of other patches, so one can force
+ * another (trees of 11 levels or more; see lod_force.comp). Forcing only adds splits, so
+ * repeating sweeps until one adds nothing reaches the least fixed point whatever the order,
+ * the set the GPU's loop reaches too. `forced` is zero on entry. */
+static void force_splits(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
+                         const uint8_t *split_prev, uint8_t *forced)
+{
+	const uint32_t L = f->layout.levels;
+	if (L < 7)
+		return;
+	const uint32_t end = relief_level_first_id(L - 5);
+	for (bool changed = true; changed;) {
+		changed = false;
+		for (uint32_t id = 1; id < end; id++)
+			if (!(forced[id] & 2) && forced_split(f, o, kappa, tau, split_prev, forced, id)) {
+				forced[id] |= 2;
+				changed = true;
+			}
+	}
 }
 
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
@@ -245,10 +267,14 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 	enum { REACHABLE = 2, WANTED = 4 };
 	memset(draw, 0, lay->patch_count);
 	draw[0] = REACHABLE | WANTED;
+	/* split_next holds the forced splits (bit 1) until the traversal writes each entry. */
+	memset(split_next, 0, lay->patch_count);
+	force_splits(f, &o, kappa, tau, split_prev, split_next);
 	for (uint32_t id = 0; id < lay->patch_count; id++) {
 		uint32_t l, px, py;
 		relief_patch_coords(lay, id, &l, &px, &py);
 		uint8_t marks = draw[id];
+		const bool forced = split_next[id] & 2;
 		draw[id] = 0;
 		split_next[id] = 0;
 		if (!(marks & WANTED))
@@ -260,7 +286,7 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		float d = relief_box_distance(&box);
 		float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
 		bool wish = l + 1 < lay->levels &&
-		            (wants_split(err, tau, split_prev[id]) || forced_split(f, &o, kappa, tau, split_prev, id));
+		            (wants_split(err, tau, split_prev[id]) || forced);
 		split_next[id] = wish;
 		if (id != 0 && !(rec.flags & RELIEF_PATCH_EMPTY) && !resident[id] && *n_want < want_cap)
 			want[(*n_want)++] = id;

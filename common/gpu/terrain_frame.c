@@ -158,10 +158,10 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
 	if (sp.levels >= 7) {
 		/* Forced splits (lod_force.comp): levels 1 .. L - 6, where a patch could otherwise
-		 * be drawn beside one 5 levels finer. Nothing for shallower trees. */
-		uint32_t forced = relief_level_first_id(sp.levels - 5) - 1;
+		 * be drawn beside one 5 levels finer; one workgroup sweeps them to a fixed point.
+		 * Nothing for shallower trees. */
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->force);
-		vkCmdDispatch(cmd, (forced + 63) / 64, 1, 1);
+		vkCmdDispatch(cmd, 1, 1, 1);
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
 	}

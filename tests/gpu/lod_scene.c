@@ -181,6 +181,32 @@ uint32_t fresh_view_matches_cpu(struct scene *s, const struct relief_view *v, ui
 	return gpu_matches_cpu(s, v, &st);
 }
 
+/* The largest level difference between two drawn patches that share a border: each drawn
+ * patch painted, by level, onto a grid of finest-level cells, neighbours compared. */
+uint32_t max_level_jump(const struct scene *s, const uint32_t *ids, uint32_t n)
+{
+	uint32_t side = 1u << (s->f->hdr.levels - 1), worst = 0;
+	uint8_t *g = calloc((size_t)side * side, 1);
+	for (uint32_t i = 0; i < n; i++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));
+		uint32_t k = side >> l;
+		for (uint32_t y = py * k; y < (py + 1) * k; y++)
+			memset(g + (size_t)y * side + px * k, (int)(l + 1), k);
+	}
+	for (uint32_t y = 0; y < side; y++)
+		for (uint32_t x = 0; x < side; x++) {
+			int a = g[(size_t)y * side + x];
+			int e = x + 1 < side ? g[(size_t)y * side + x + 1] : 0, so = y + 1 < side ? g[(size_t)(y + 1) * side + x] : 0;
+			if (a && e && (uint32_t)abs(a - e) > worst)
+				worst = (uint32_t)abs(a - e);
+			if (a && so && (uint32_t)abs(a - so) > worst)
+				worst = (uint32_t)abs(a - so);
+		}
+	free(g);
+	return worst;
+}
+
 /* The finest level and the two depth images of a bound scene whose scene is open. */
 static void bound_buffers(struct bound_scene *b)
 {

@@ -79,6 +79,9 @@ uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const str
  * scene's, so that nothing is split before. */
 uint32_t fresh_view_matches_cpu(struct scene *s, const struct relief_view *v, uint64_t frame,
                                 const struct relief_draw_options *opts);
+/* The largest level difference between two drawn patches (ids[], n of them) that share a
+ * border. */
+uint32_t max_level_jump(const struct scene *s, const uint32_t *ids, uint32_t n);
 
 struct pose {
 	double eye[3], at[3];

@@ -204,32 +204,6 @@ static uint32_t hash32(uint32_t x)
 	return x;
 }
 
-/* The largest level difference between two drawn patches that share a border: each drawn
- * patch painted, by level, onto a grid of finest-level cells, neighbours compared. */
-static uint32_t max_level_jump(const struct scene *s, const uint32_t *ids, uint32_t n)
-{
-	uint32_t side = 1u << (s->f->hdr.levels - 1), worst = 0;
-	uint8_t *g = calloc((size_t)side * side, 1);
-	for (uint32_t i = 0; i < n; i++) {
-		uint32_t l, px, py;
-		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));
-		uint32_t k = side >> l;
-		for (uint32_t y = py * k; y < (py + 1) * k; y++)
-			memset(g + (size_t)y * side + px * k, (int)(l + 1), k);
-	}
-	for (uint32_t y = 0; y < side; y++)
-		for (uint32_t x = 0; x < side; x++) {
-			int a = g[(size_t)y * side + x];
-			int e = x + 1 < side ? g[(size_t)y * side + x + 1] : 0, so = y + 1 < side ? g[(size_t)(y + 1) * side + x] : 0;
-			if (a && e && (uint32_t)abs(a - e) > worst)
-				worst = (uint32_t)abs(a - e);
-			if (a && so && (uint32_t)abs(a - so) > worst)
-				worst = (uint32_t)abs(a - so);
-		}
-	free(g);
-	return worst;
-}
-
 /* Level jumps wider than a patch's blocks: a flat sea (x up to the middle column) beside
  * rough land (a 5 m per sample rise plus up to 200 m of per-sample noise, ramped in over 16
  * samples), 1025 x 1025 samples 30 m apart, packed with 65-sample patches (4 x 4 blocks,

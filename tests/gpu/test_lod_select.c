@@ -284,6 +284,63 @@ static void test_deep_tree_matches_cpu(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Forced splits that force others (trees of 11 levels or more). A 65537 x 65 corridor at
+ * P = 65 (11 levels), flat at 0 m but for 61 columns of rough ground just east of the
+ * border between the level-5 patches A (x = 16) and B (x = 17). Looking west from above
+ * the rough ground: B's chain along that border down to level 9 wants to split, so flat A
+ * is forced and its level-6 children lie beside the corridor's western half, the flat
+ * level-1 patch C, 5 levels coarser. C must be forced in turn, through the chain east of
+ * it whose level-5 link is A, which wants to split only because it is forced. The GPU's
+ * selection equals the CPU reference's, C is split and no two patches side by side are
+ * more than 4 levels apart. Negative control, run when the test was written: with one
+ * sweep of the pre-pass (the pass before the fixed point), C stays whole beside level 6
+ * (a jump of 5) at each view, on the GPU and the CPU alike. */
+static void test_forced_splits_cascade(void **state)
+{
+	enum { W = 65537, H = 65, ROUGH0 = 34818, ROUGH1 = 34878 };
+	struct relief_dem dem = { .width = W, .height = H, .spacing_x = 10, .spacing_y = 10, .origin_y = 10.0 * (H - 1) };
+	dem.heights = calloc((size_t)W * H, sizeof(float));
+	dem.valid = malloc((size_t)W * H);
+	assert_non_null(dem.heights);
+	assert_non_null(dem.valid);
+	memset(dem.valid, 1, (size_t)W * H);
+	for (uint32_t y = 0; y < H; y++)
+		for (uint32_t x = ROUGH0; x <= ROUGH1; x++)
+			dem.heights[(size_t)y * W + x] = (float)(50 + 50 * sin(x * 1.7 + y * 0.9) * cos(x * 0.3 - y * 2.1));
+	struct scene s;
+	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
+	relief_dem_finish(&dem);
+	assert_int_equal(s.f->hdr.levels, 11);
+	const uint32_t c_id = relief_patch_id(1, 0, 0);
+	uint32_t *ids = malloc(4 * s.f->hdr.patch_count);
+	const struct {
+		double x, z, tau;
+	} views[] = { { 348500, 300, 2 }, { 348500, 800, 4 }, { 349000, 150, 2 } };
+	for (size_t i = 0; i < sizeof(views) / sizeof(views[0]); i++) {
+		struct relief_view v = {
+			.eye = { views[i].x, 320, views[i].z }, .target = { views[i].x - 3000, 320, 0 },
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = views[i].tau,
+		};
+		float *depth = malloc(sizeof(float) * 320 * 180);
+		struct relief_terrain_stats st;
+		render(&s, &v, depth, &st);
+		free(depth);
+		assert_true(fresh_view_matches_cpu(&s, &v, 300 + i, NULL) > 0);
+		uint32_t n, mask = drawn_levels(&s, ids, &n), jump = max_level_jump(&s, ids, n);
+		bool c_drawn = false;
+		for (uint32_t k = 0; k < n; k++)
+			c_drawn = c_drawn || ids[k] == c_id;
+		print_message("view %zu (tau %g): %u patches, levels drawn 0x%x, largest level jump %u, C %s\n", i,
+		              v.tau, n, mask, jump, c_drawn ? "whole" : "split");
+		assert_false(c_drawn);
+		assert_true(mask & (1u << 6)); /* A's children */
+		assert_true(jump <= 4);
+	}
+	free(ids);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* Requests look ahead: from a cold cache, the first frame asks for the whole tree the view
  * draws once everything has arrived, down to the finest level (not one level per frame),
  * and the GPU's requests equal the CPU reference's, there and with part of the tree
@@ -899,6 +956,7 @@ int main(void)
 		cmocka_unit_test(test_gpu_matches_cpu),
 		cmocka_unit_test(test_hysteresis_matches_cpu),
 		cmocka_unit_test(test_deep_tree_matches_cpu),
+		cmocka_unit_test(test_forced_splits_cascade),
 		cmocka_unit_test(test_requests_look_ahead),
 		cmocka_unit_test(test_views_share_cache),
 		cmocka_unit_test(test_near_detail_takes_layers),
