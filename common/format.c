@@ -46,7 +46,8 @@ size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
 static const uint8_t *patch_block_bytes(const struct relief_file *f, uint32_t id)
 {
 	static const uint8_t none[RELIEF_MAX_BLOCKS * 5]; /* errors and range bytes at the largest patch */
-	uint32_t slot = f->block_slot[id];
+	uint32_t rec = relief_index_slot(&f->hdr, id);
+	uint32_t slot = rec == UINT32_MAX ? UINT32_MAX : f->block_slot[rec];
 	if (slot == UINT32_MAX)
 		return none;
 	return f->meta + f->hdr.block_errors_offset +
@@ -242,9 +243,11 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	if (r.file_size != size)
 		return bad(err, err_size, "file is %zu bytes but its header says %llu (truncated or extended)", size,
 		           (unsigned long long)r.file_size);
-	uint64_t idx_len = (uint64_t)r.patch_count * RELIEF_INDEX_RECORD_SIZE;
-	if (r.block_patches < 1 || r.block_patches > r.patch_count)
-		return bad(err, err_size, "%u block records for %u patches", r.block_patches, r.patch_count);
+	relief_index_windows(&r);
+	uint64_t idx_len = (uint64_t)r.index_records * RELIEF_INDEX_RECORD_SIZE;
+	if (r.block_patches < 1 || r.block_patches > r.index_records)
+		return bad(err, err_size, "%u block records for %u patches with index records", r.block_patches,
+		           r.index_records);
 	uint64_t be_len = (uint64_t)r.block_patches * relief_block_bytes_per_patch(r.version, r.patch_size);
 	uint64_t mask_len = r.masks_size;
 	if ((r.mask_count == 0) != (mask_len == 0))
@@ -263,6 +266,41 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	*h = r;
 	*lay = L;
 	return 0;
+}
+
+void relief_index_windows(struct relief_header *h)
+{
+	uint32_t first = 0;
+	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++) {
+		uint32_t cols = 0, rows = 0;
+		if (l < h->levels) {
+			cols = rows = 1u << l;
+			if (h->version >= 6) {
+				/* Patch px's footprint starts at finest column px * span: inside the raster
+				 * while that is below width (what the packer makes EMPTY otherwise). */
+				const uint64_t span = (uint64_t)(h->patch_size - 1) << (h->levels - 1 - l);
+				uint64_t c = (h->width + span - 1) / span, r = (h->height + span - 1) / span;
+				cols = c < cols ? (uint32_t)c : cols;
+				rows = r < rows ? (uint32_t)r : rows;
+			}
+		}
+		h->index_cols[l] = cols;
+		h->index_rows[l] = rows;
+		h->index_first[l] = first;
+		first += cols * rows; /* at most the patch count, below 2^32 */
+	}
+	h->index_records = first;
+}
+
+uint32_t relief_index_slot(const struct relief_header *h, uint32_t id)
+{
+	uint32_t l = 0;
+	while (l + 1 < h->levels && relief_level_first_id(l + 1) <= id)
+		l++;
+	uint32_t local = id - relief_level_first_id(l), px = local & ((1u << l) - 1), py = local >> l;
+	if (px >= h->index_cols[l] || py >= h->index_rows[l])
+		return UINT32_MAX;
+	return h->index_first[l] + py * h->index_cols[l] + px;
 }
 
 void relief_record_write(const struct relief_patch_record *r, uint8_t *o)
@@ -292,11 +330,73 @@ void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
 	r->mask_size = le_get_u32(in + 36);
 }
 
+/* Checks one index record, patch id (level l, px, py) at record `rec`, and assigns its block
+ * record. */
+static int validate_record(struct relief_file *f, uint32_t id, uint32_t l, uint32_t px, uint32_t py, uint32_t rec,
+                           uint32_t *slots, uint32_t *masks_seen, char *err, size_t err_size)
+{
+	const struct relief_header *h = &f->hdr;
+	struct relief_patch_record r;
+	relief_record_read(f->meta + h->index_offset + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE, &r);
+	/* From version 5 block records are for non-EMPTY patches only, in index order. */
+	if (h->version >= 5 && (r.flags & RELIEF_PATCH_EMPTY))
+		f->block_slot[rec] = UINT32_MAX;
+	else if (*slots == h->block_patches)
+		return bad(err, err_size, "patch %u has no block record (the header counts %u)", id, h->block_patches);
+	else
+		f->block_slot[rec] = (*slots)++;
+	if (r.flags & ~RELIEF_PATCH_FLAGS_KNOWN)
+		return bad(err, err_size, "patch %u (level %u, %u,%u): unknown flags 0x%x", id, l, px, py, r.flags);
+	if (r.flags & RELIEF_PATCH_EMPTY) {
+		if (id == 0)
+			return bad(err, err_size, "the root patch is empty");
+		if (r.size || r.offset || (r.flags & RELIEF_PATCH_MASKED))
+			return bad(err, err_size, "patch %u (level %u, %u,%u): empty patch with data", id, l, px, py);
+	} else if (r.offset > h->data_size || r.size > h->data_size - r.offset || r.size == 0 || r.size > (64u << 20)) {
+		return bad(err, err_size, "patch %u (level %u, %u,%u): stream [%llu, +%u) outside the data section", id, l,
+		           px, py, (unsigned long long)r.offset, r.size);
+	} else if (!isfinite(r.height_min) || !isfinite(r.height_max) || r.height_min > r.height_max ||
+	           fabs(r.height_min) > RELIEF_MAX_HEIGHT || fabs(r.height_max) > RELIEF_MAX_HEIGHT) {
+		return bad(err, err_size, "patch %u (level %u, %u,%u): bad height range", id, l, px, py);
+	} else if (!isfinite(r.error) || r.error < 0 || r.error > 1e6) {
+		return bad(err, err_size, "patch %u (level %u, %u,%u): bad error bound %g", id, l, px, py, r.error);
+	}
+	if (r.flags & RELIEF_PATCH_MASKED) {
+		if (r.mask_size == 0 || r.mask_offset > h->masks_size || r.mask_size > h->masks_size - r.mask_offset)
+			return bad(err, err_size, "patch %u (level %u, %u,%u): mask [%u, +%u) outside the mask section", id, l,
+			           px, py, r.mask_offset, r.mask_size);
+		(*masks_seen)++;
+	} else if (r.mask_offset || r.mask_size) {
+		return bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
+	}
+	if (h->version >= 4) {
+		const size_t nr = blocks_per_patch(h->patch_size);
+		const uint8_t *rg = patch_block_bytes(f, id) + relief_block_errors_per_patch(h->patch_size);
+		for (size_t i = 0; i < nr; i++)
+			if ((rg[i] & 15) > (rg[i] >> 4))
+				return bad(err, err_size, "patch %u (level %u, %u,%u): block %zu's height range is inverted", id,
+				           l, px, py, i);
+	}
+	if (r.flags & RELIEF_PATCH_EMPTY)
+		return 0;
+	if (r.size > f->max_stream)
+		f->max_stream = r.size;
+	if (id > 0) {
+		/* A patch with data needs a parent with data: decoding walks down from the root. The
+		 * parent lies in its level's window (relief_index_windows()). */
+		struct relief_patch_record pr;
+		relief_file_record(f, relief_patch_id(l - 1, px / 2, py / 2), &pr);
+		if (pr.flags & RELIEF_PATCH_EMPTY)
+			return bad(err, err_size, "patch %u (level %u, %u,%u) has data but its parent is empty", id, l, px, py);
+	}
+	return 0;
+}
+
 static int validate_body(struct relief_file *f, char *err, size_t err_size)
 {
 	const struct relief_header *h = &f->hdr;
 	const uint8_t *b = f->meta;
-	uint64_t idx_len = (uint64_t)h->patch_count * RELIEF_INDEX_RECORD_SIZE;
+	uint64_t idx_len = (uint64_t)h->index_records * RELIEF_INDEX_RECORD_SIZE;
 	size_t be_per = relief_block_bytes_per_patch(h->version, h->patch_size);
 	uint64_t be_len = (uint64_t)h->block_patches * be_per;
 	uint64_t mask_len = h->masks_size;
@@ -311,68 +411,17 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	if (memchr(b + h->crs_offset, 0, h->crs_size))
 		return bad(err, err_size, "CRS text contains a NUL byte");
 
-	if (!(f->block_slot = malloc(sizeof(uint32_t) * h->patch_count)))
+	if (!(f->block_slot = malloc(sizeof(uint32_t) * h->index_records)))
 		return -ENOMEM;
 	uint32_t masks_seen = 0, slots = 0;
 	int ret = 0;
-	for (uint32_t id = 0; id < h->patch_count && ret == 0; id++) {
-		struct relief_patch_record r;
-		relief_record_read(b + h->index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, &r);
-		/* Version 5 stores block records for non-EMPTY patches only, in id order. */
-		if (h->version >= 5 && (r.flags & RELIEF_PATCH_EMPTY)) {
-			f->block_slot[id] = UINT32_MAX;
-		} else if (slots == h->block_patches) {
-			ret = bad(err, err_size, "patch %u has no block record (the header counts %u)", id, h->block_patches);
-			break;
-		} else {
-			f->block_slot[id] = slots++;
-		}
-		uint32_t l, px, py;
-		relief_patch_coords(&f->layout, id, &l, &px, &py);
-		if (r.flags & ~RELIEF_PATCH_FLAGS_KNOWN)
-			ret = bad(err, err_size, "patch %u (level %u, %u,%u): unknown flags 0x%x", id, l, px, py, r.flags);
-		else if (r.flags & RELIEF_PATCH_EMPTY) {
-			if (r.size || r.offset || (r.flags & RELIEF_PATCH_MASKED))
-				ret = bad(err, err_size, "patch %u (level %u, %u,%u): empty patch with data", id, l, px, py);
-		} else if (r.offset > h->data_size || r.size > h->data_size - r.offset || r.size == 0 ||
-		           r.size > (64u << 20))
-			ret = bad(err, err_size, "patch %u (level %u, %u,%u): stream [%llu, +%u) outside the data section",
-			          id, l, px, py, (unsigned long long)r.offset, r.size);
-		else if (!isfinite(r.height_min) || !isfinite(r.height_max) || r.height_min > r.height_max ||
-		         fabs(r.height_min) > RELIEF_MAX_HEIGHT || fabs(r.height_max) > RELIEF_MAX_HEIGHT)
-			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad height range", id, l, px, py);
-		else if (!isfinite(r.error) || r.error < 0 || r.error > 1e6)
-			ret = bad(err, err_size, "patch %u (level %u, %u,%u): bad error bound %g", id, l, px, py, r.error);
-		else if (r.flags & RELIEF_PATCH_MASKED) {
-			if (r.mask_size == 0 || r.mask_offset > h->masks_size || r.mask_size > h->masks_size - r.mask_offset)
-				ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask [%u, +%u) outside the mask section",
-				          id, l, px, py, r.mask_offset, r.mask_size);
-			masks_seen++;
-		} else if (r.mask_offset || r.mask_size) {
-			ret = bad(err, err_size, "patch %u (level %u, %u,%u): mask data on an unmasked patch", id, l, px, py);
-		}
-		if (ret == 0 && h->version >= 4) {
-			const size_t nr = blocks_per_patch(h->patch_size);
-			const uint8_t *rg = patch_block_bytes(f, id) + relief_block_errors_per_patch(h->patch_size);
-			for (size_t i = 0; i < nr && ret == 0; i++)
-				if ((rg[i] & 15) > (rg[i] >> 4))
-					ret = bad(err, err_size, "patch %u (level %u, %u,%u): block %zu's height range is inverted",
-					          id, l, px, py, i);
-		}
-		if (ret == 0 && !(r.flags & RELIEF_PATCH_EMPTY) && r.size > f->max_stream)
-			f->max_stream = r.size;
-		if (ret == 0 && id > 0 && !(r.flags & RELIEF_PATCH_EMPTY)) {
-			/* A patch with data needs a parent with data: decoding walks down from the root. */
-			uint32_t parent = relief_patch_id(l - 1, px / 2, py / 2);
-			struct relief_patch_record pr;
-			relief_record_read(b + h->index_offset + (uint64_t)parent * RELIEF_INDEX_RECORD_SIZE, &pr);
-			if (pr.flags & RELIEF_PATCH_EMPTY)
-				ret = bad(err, err_size, "patch %u (level %u, %u,%u) has data but its parent is empty", id, l,
-				          px, py);
-		} else if (ret == 0 && id == 0 && (r.flags & RELIEF_PATCH_EMPTY)) {
-			ret = bad(err, err_size, "the root patch is empty");
-		}
-	}
+	/* Window by window, row by row: record order, so block records are assigned in it. */
+	for (uint32_t l = 0; l < h->levels && ret == 0; l++)
+		for (uint32_t py = 0; py < h->index_rows[l] && ret == 0; py++)
+			for (uint32_t px = 0; px < h->index_cols[l] && ret == 0; px++)
+				ret = validate_record(f, relief_patch_id(l, px, py), l, px, py,
+				                      h->index_first[l] + py * h->index_cols[l] + px, &slots, &masks_seen, err,
+				                      err_size);
 	if (ret == 0 && masks_seen != h->mask_count)
 		ret = bad(err, err_size, "%u masked patches but the header counts %u", masks_seen, h->mask_count);
 	if (ret == 0 && slots != h->block_patches)
@@ -504,7 +553,12 @@ void relief_file_close(struct relief_file *f)
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r)
 {
-	relief_record_read(f->meta + f->hdr.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE, r);
+	uint32_t rec = relief_index_slot(&f->hdr, id);
+	if (rec == UINT32_MAX) { /* outside its level's window: EMPTY, as packers before version 6 wrote it */
+		*r = (struct relief_patch_record){ .flags = RELIEF_PATCH_EMPTY };
+		return;
+	}
+	relief_record_read(f->meta + f->hdr.index_offset + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE, r);
 }
 
 int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size)

@@ -25,8 +25,9 @@
 /* 2: residual contexts from classes (docs/codec.md); 3: streams skip the padding beyond
  * the valid extent (relief_patch_window()); 4: block errors measured against the finest
  * decoded surface, and block height ranges (patch_error.h); 5: block records for
- * non-EMPTY patches only, counted in the header. Versions 2 to 4 are still read. */
-#define RELIEF_FORMAT_VERSION 5u
+ * non-EMPTY patches only, counted in the header; 6: index records only for the patches
+ * of each level's index window (relief_index_windows()). Versions 2 to 5 are still read. */
+#define RELIEF_FORMAT_VERSION 6u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 #define RELIEF_INDEX_RECORD_SIZE 40u
@@ -72,6 +73,14 @@ struct relief_header {
 	 * order; before, every patch (the header's field is new in version 5). */
 	uint32_t block_patches;
 	double delta[RELIEF_MAX_LEVELS];
+	/* Not stored: derived from the fields above by relief_index_windows(). From version 6
+	 * the index holds records for the patches of each level l whose footprint starts
+	 * inside the raster, px < index_cols[l] and py < index_rows[l], level-major and
+	 * row-major within that window starting at record index_first[l]; every other patch
+	 * is EMPTY and has no record. Before version 6 the windows are whole levels. A patch's
+	 * parent lies in its level's window whenever the patch lies in its own. */
+	uint32_t index_cols[RELIEF_MAX_LEVELS], index_rows[RELIEF_MAX_LEVELS], index_first[RELIEF_MAX_LEVELS];
+	uint32_t index_records; /* records in the index */
 };
 
 struct relief_patch_record {
@@ -97,6 +106,11 @@ size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size);
 void relief_header_write(const struct relief_header *h, uint8_t *out);
 int relief_header_parse(const uint8_t *buf, size_t size, struct relief_header *h, struct relief_layout *lay,
                         char *err, size_t err_size);
+/* Fills the header's index windows from its version, levels, patch size and extent. */
+void relief_index_windows(struct relief_header *h);
+/* Patch id's record number in the index, or UINT32_MAX for a patch outside its level's
+ * window (EMPTY, no record). id < patch_count. */
+uint32_t relief_index_slot(const struct relief_header *h, uint32_t id);
 void relief_record_write(const struct relief_patch_record *r, uint8_t *out);
 void relief_record_read(const uint8_t *in, struct relief_patch_record *r);
 
@@ -108,7 +122,8 @@ struct relief_file {
 	const uint8_t *image;  /* memory images only: the whole file (borrowed) */
 	int fd;                /* files only: CLOEXEC, for pread(); -1 for memory images */
 	uint32_t max_stream;   /* largest patch stream, bytes */
-	uint32_t *block_slot;  /* per patch: its record in the block section; UINT32_MAX: none (EMPTY, version 5) */
+	uint32_t *block_slot;  /* per index record: its patch's record in the block section; UINT32_MAX: none
+	                        * (EMPTY, from version 5) */
 	char *crs;             /* NUL-terminated copy of the CRS text (may be empty) */
 	char *path;            /* files only: the path it was opened with (for messages) */
 };

@@ -357,11 +357,12 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		st->empty_patches += !!(p->rec[id].flags & RELIEF_PATCH_EMPTY);
 	}
 	h.block_patches = n - st->empty_patches; /* block records for patches with data only */
+	relief_index_windows(&h);
 	st->masked_patches = h.mask_count;
 	st->stream_bytes = data_size;
 	size_t crs_len = dem->crs_wkt ? strlen(dem->crs_wkt) : 0;
 	h.index_offset = RELIEF_HEADER_SIZE;
-	h.block_errors_offset = align8(h.index_offset + (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
+	h.block_errors_offset = align8(h.index_offset + (uint64_t)h.index_records * RELIEF_INDEX_RECORD_SIZE);
 	h.masks_offset = align8(h.block_errors_offset + (uint64_t)h.block_patches * be_per);
 	h.crs_offset = align8(h.masks_offset + h.masks_size);
 	h.crs_size = (uint32_t)crs_len;
@@ -372,10 +373,20 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	uint8_t *img = calloc(1, h.file_size);
 	if (!img)
 		return -ENOMEM;
+	/* Block records follow index order (level by level, row by row within the window),
+	 * which is id order: a window's rows are the level's first rows. */
 	uint64_t slot = 0;
 	for (uint32_t id = 0; id < n; id++) {
-		relief_record_write(&p->rec[id], img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE);
 		const struct relief_patch_record *r = &p->rec[id];
+		uint32_t rec = relief_index_slot(&h, id);
+		if (rec == UINT32_MAX) {
+			if (!(r->flags & RELIEF_PATCH_EMPTY) || r->size || r->height_min || r->height_max || r->error) {
+				free(img);
+				return -EINVAL; /* encode_patch() marks every patch outside the windows EMPTY */
+			}
+			continue;
+		}
+		relief_record_write(r, img + h.index_offset + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE);
 		if (!(r->flags & RELIEF_PATCH_EMPTY)) {
 			uint8_t *be = img + h.block_errors_offset + slot++ * be_per;
 			for (size_t i = 0; i < ne; i++)
@@ -392,7 +403,7 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	}
 	if (crs_len)
 		memcpy(img + h.crs_offset, dem->crs_wkt, crs_len);
-	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
+	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)h.index_records * RELIEF_INDEX_RECORD_SIZE);
 	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)h.block_patches * be_per);
 	h.masks_crc = relief_crc32c(0, img + h.masks_offset, h.masks_size);
 	h.crs_crc = relief_crc32c(0, img + h.crs_offset, crs_len);

@@ -87,6 +87,8 @@ int cmd_info(int argc, char **argv)
 		       h->height_max, (unsigned long long)h->valid_samples, bps,
 		       h->source_units == RELIEF_UNITS_FEET ? "ft" : "m");
 		cli_json_string(stdout, f->crs);
+		printf(",\"index_records\":%u,\"block_records\":%u,\"metadata_bytes\":%llu", h->index_records,
+		       h->block_patches, (unsigned long long)h->data_offset);
 		printf(",\"corrupt_masks\":%u,\"levels\":[", bad_masks);
 		for (uint32_t l = 0; l < h->levels; l++)
 			printf("%s{\"level\":%u,\"delta_m\":%.17g,\"patches\":%u,\"nonempty\":%u,\"bytes\":%llu,"
@@ -105,6 +107,8 @@ int cmd_info(int argc, char **argv)
 		       (unsigned long long)h->valid_samples, 100.0 * h->valid_samples / ((double)h->width * h->height));
 		printf("  patches    %u samples, %u x %u blocks of %u cells, tolerance %.6g m, ratio %u\n", h->patch_size,
 		       f->layout.blocks, f->layout.blocks, h->block_cells, h->tolerance, h->ratio);
+		printf("  metadata   %llu bytes: %u index records, %u block records (patches without one are "
+		       "empty)\n", (unsigned long long)h->data_offset, h->index_records, h->block_patches);
 		printf("  level  delta_m     patches  nonempty  blocks with data  bytes\n");
 		for (uint32_t l = 0; l < h->levels; l++)
 			printf("  %5u  %-10.6g  %7u  %8u  %6.1f%%           %llu\n", l, h->delta[l], 1u << (2 * l), nonempty[l],

@@ -623,7 +623,8 @@ static void poison_stream(struct terrain *t, uint32_t id)
 	struct relief_layout lay;
 	char err[256];
 	assert_int_equal(relief_header_parse(t->img, t->size, &h, &lay, err, sizeof(err)), 0);
-	uint8_t *rec = t->img + h.index_offset + (uint64_t)id * RELIEF_INDEX_RECORD_SIZE;
+	assert_int_not_equal(relief_index_slot(&h, id), UINT32_MAX);
+	uint8_t *rec = t->img + h.index_offset + (uint64_t)relief_index_slot(&h, id) * RELIEF_INDEX_RECORD_SIZE;
 	struct relief_patch_record r;
 	relief_record_read(rec, &r);
 	assert_true(out_size <= r.size); /* fits where the old stream was */
@@ -631,7 +632,7 @@ static void poison_stream(struct terrain *t, uint32_t id)
 	r.size = (uint32_t)out_size;
 	r.crc = relief_crc32c(0, out, out_size);
 	relief_record_write(&r, rec);
-	h.index_crc = relief_crc32c(0, t->img + h.index_offset, (uint64_t)h.patch_count * RELIEF_INDEX_RECORD_SIZE);
+	h.index_crc = relief_crc32c(0, t->img + h.index_offset, (uint64_t)h.index_records * RELIEF_INDEX_RECORD_SIZE);
 	relief_header_write(&h, t->img);
 	relief_file_close(t->f);
 	assert_int_equal(relief_file_open_memory(t->img, t->size, &t->f, err, sizeof(err)), 0);

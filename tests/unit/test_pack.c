@@ -351,6 +351,55 @@ static void test_windows_change_nothing(void **state)
 
 /* No-data never becomes a height: the decoded mask equals the input's validity at every
  * level, and decoded heights are NaN exactly there. */
+/* Format version 6: the index holds a record for exactly the patches whose footprint
+ * starts inside the raster (docs/format.md), every other patch reads EMPTY, and so a long,
+ * narrow raster's metadata follows its data, not the square grid. */
+static void test_index_follows_raster(void **state)
+{
+	struct { uint32_t w, h, patch; } cases[] = { { 3001, 40, 65 }, { 37, 1500, 257 }, { 700, 300, 65 } };
+	for (size_t c = 0; c < sizeof(cases) / sizeof(cases[0]); c++) {
+		struct relief_dem dem;
+		synthetic_dem(&dem, cases[c].w, cases[c].h);
+		struct relief_pack_options o = { .patch = cases[c].patch, .ratio = 2, .tolerance = 0.5 };
+		uint8_t *img;
+		size_t size;
+		struct relief_pack_stats st;
+		assert_int_equal(relief_pack_memory(&dem, &o, &img, &size, &st), 0);
+		struct relief_file *f;
+		char err[256];
+		assert_int_equal(relief_file_open_memory(img, size, &f, err, sizeof(err)), 0);
+		const struct relief_header *h = &f->hdr;
+		uint32_t inside = 0, empty_inside = 0;
+		for (uint32_t id = 0; id < h->patch_count; id++) {
+			uint32_t l, px, py;
+			assert_true(relief_patch_coords(&f->layout, id, &l, &px, &py));
+			const uint64_t span = (uint64_t)(h->patch_size - 1) << (h->levels - 1 - l);
+			bool in = px * span < h->width && py * span < h->height;
+			struct relief_patch_record r;
+			relief_file_record(f, id, &r);
+			if (in) {
+				assert_int_equal(relief_index_slot(h, id), inside); /* in id order, one after another */
+				inside++;
+				empty_inside += !!(r.flags & RELIEF_PATCH_EMPTY);
+			} else {
+				assert_int_equal(relief_index_slot(h, id), UINT32_MAX);
+				assert_int_equal(r.flags, RELIEF_PATCH_EMPTY);
+				assert_int_equal(r.size, 0);
+			}
+		}
+		print_message("%u x %u at %u: %u patches, %u index records (%u of them empty), %llu bytes of metadata\n",
+		              dem.width, dem.height, cases[c].patch, h->patch_count, h->index_records, empty_inside,
+		              (unsigned long long)h->data_offset);
+		assert_int_equal(h->index_records, inside);
+		assert_int_equal(h->block_patches, inside - empty_inside);
+		assert_int_equal(h->patch_count - h->block_patches, st.empty_patches);
+		assert_true(inside < h->patch_count);
+		relief_file_close(f);
+		free(img);
+		relief_dem_finish(&dem);
+	}
+}
+
 static void test_nodata_stays_nodata(void **state)
 {
 	struct packed p = { 0 };
@@ -431,6 +480,7 @@ int main(void)
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_nodata_stays_nodata),
 		cmocka_unit_test(test_windows_change_nothing),
+		cmocka_unit_test(test_index_follows_raster),
 		cmocka_unit_test(test_bad_inputs),
 	};
 	return cmocka_run_group_tests(tests, NULL, NULL);
