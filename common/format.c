@@ -46,7 +46,7 @@ size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
 static const uint8_t *patch_block_bytes(const struct relief_file *f, uint32_t id)
 {
 	static const uint8_t none[RELIEF_MAX_BLOCKS * 5]; /* errors and range bytes at the largest patch */
-	uint32_t rec = relief_index_slot(&f->hdr, id);
+	uint32_t rec = relief_index_entry(&f->hdr, id);
 	uint32_t slot = rec == UINT32_MAX ? UINT32_MAX : f->block_slot[rec];
 	if (slot == UINT32_MAX)
 		return none;
@@ -292,7 +292,7 @@ void relief_index_windows(struct relief_header *h)
 	h->index_records = first;
 }
 
-uint32_t relief_index_slot(const struct relief_header *h, uint32_t id)
+uint32_t relief_index_entry(const struct relief_header *h, uint32_t id)
 {
 	uint32_t l = 0;
 	while (l + 1 < h->levels && relief_level_first_id(l + 1) <= id)
@@ -301,6 +301,15 @@ uint32_t relief_index_slot(const struct relief_header *h, uint32_t id)
 	if (px >= h->index_cols[l] || py >= h->index_rows[l])
 		return UINT32_MAX;
 	return h->index_first[l] + py * h->index_cols[l] + px;
+}
+
+uint32_t relief_index_patch(const struct relief_header *h, uint32_t e)
+{
+	uint32_t l = 0;
+	while (l + 1 < h->levels && h->index_first[l + 1] <= e)
+		l++;
+	uint32_t local = e - h->index_first[l];
+	return relief_patch_id(l, local % h->index_cols[l], local / h->index_cols[l]);
 }
 
 void relief_record_write(const struct relief_patch_record *r, uint8_t *o)
@@ -553,7 +562,7 @@ void relief_file_close(struct relief_file *f)
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r)
 {
-	uint32_t rec = relief_index_slot(&f->hdr, id);
+	uint32_t rec = relief_index_entry(&f->hdr, id);
 	if (rec == UINT32_MAX) { /* outside its level's window: EMPTY, as packers before version 6 wrote it */
 		*r = (struct relief_patch_record){ .flags = RELIEF_PATCH_EMPTY };
 		return;

@@ -108,9 +108,12 @@ int relief_header_parse(const uint8_t *buf, size_t size, struct relief_header *h
                         char *err, size_t err_size);
 /* Fills the header's index windows from its version, levels, patch size and extent. */
 void relief_index_windows(struct relief_header *h);
-/* Patch id's record number in the index, or UINT32_MAX for a patch outside its level's
- * window (EMPTY, no record). id < patch_count. */
-uint32_t relief_index_slot(const struct relief_header *h, uint32_t id);
+/* Patch id's entry: its record number in the index, or UINT32_MAX for a patch outside its
+ * level's window (EMPTY, no record). id < patch_count. Entries also number the per-patch
+ * arrays of the GPU cache and the selection, so that they follow the data too. */
+uint32_t relief_index_entry(const struct relief_header *h, uint32_t id);
+/* The patch id of entry e < index_records (the inverse). */
+uint32_t relief_index_patch(const struct relief_header *h, uint32_t e);
 void relief_record_write(const struct relief_patch_record *r, uint8_t *out);
 void relief_record_read(const uint8_t *in, struct relief_patch_record *r);
 

@@ -176,13 +176,16 @@ static bool wants_split(float err, float tau, bool was_split)
 }
 
 /* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit, or is forced
- * to (bit 1 of `forced[id]`). */
+ * to (bit 1 of `forced[id]`). A patch without an index entry (EMPTY outside its level's
+ * window) does neither: nothing is drawn there (the GPU has no element for it). */
 static bool raw_wish(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
                      const uint8_t *split_prev, const uint8_t *forced, uint32_t l, uint32_t x, uint32_t y)
 {
 	if (l + 1 >= f->layout.levels)
 		return false;
 	uint32_t id = relief_patch_id(l, x, y);
+	if (relief_index_entry(&f->hdr, id) == UINT32_MAX)
+		return false;
 	if (forced[id] & 2)
 		return true;
 	struct relief_box box;
@@ -241,7 +244,8 @@ static void force_splits(const struct relief_file *f, const struct relief_view_o
 	for (bool changed = true; changed;) {
 		changed = false;
 		for (uint32_t id = 1; id < end; id++)
-			if (!(forced[id] & 2) && forced_split(f, o, kappa, tau, split_prev, forced, id)) {
+			if (!(forced[id] & 2) && relief_index_entry(&f->hdr, id) != UINT32_MAX &&
+			    forced_split(f, o, kappa, tau, split_prev, forced, id)) {
 				forced[id] |= 2;
 				changed = true;
 			}

@@ -378,7 +378,7 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	uint64_t slot = 0;
 	for (uint32_t id = 0; id < n; id++) {
 		const struct relief_patch_record *r = &p->rec[id];
-		uint32_t rec = relief_index_slot(&h, id);
+		uint32_t rec = relief_index_entry(&h, id);
 		if (rec == UINT32_MAX) {
 			if (!(r->flags & RELIEF_PATCH_EMPTY) || r->size || r->height_min || r->height_max || r->error) {
 				free(img);

@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 #include "terrain_draw.glsl"
 #include "terrain_factors.glsl"
 #include "terrain_seal.glsl"
@@ -165,7 +166,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 	} else {
 		uint j = k - pc.blocks * pc.blocks, side = j / pc.blocks;
 		int i = int(j % pc.blocks);
-		if (neighbour_id(it, side) >= 0 || (pc.mode & MODE_NO_SKIRTS) != 0u ||
+		if (has_neighbour(it, side) || (pc.mode & MODE_NO_SKIRTS) != 0u ||
 		    (cull_empty && !block_has_data(it.layer, border_block(side, i)))) {
 			// Inside the terrain every border is sealed: matched at one level, drawn on
 			// the coarser edge between levels. Only the terrain's edge hangs a curtain.

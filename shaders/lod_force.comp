@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 // Forced splits, a pre-pass of the selection for trees of 7 levels or more (common/lod.c,
 // force_splits(), is the CPU reference). A border block edge can take every block
 // corner of a patch up to 4 levels finer drawn across it (16 segments, terrain_seal.glsl);
@@ -22,7 +23,9 @@
 // splits, so the result is the least fixed point whatever order the invocations run in,
 // the set the CPU twin reaches. One workgroup, so that a barrier ends each sweep (levels
 // 1 .. L - 6 hold 4, 20, 84, 340, 1,364 patches for 7 .. 11 levels); a sweep that forces
-// nothing ends it: one sweep when nothing is forced, two without a cascade.
+// nothing ends it: one sweep when nothing is forced, two without a cascade. Patches
+// without an entry (EMPTY, outside their level's window) neither want to split nor are
+// forced: nothing is drawn there.
 layout(local_size_x = 256) in;
 
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
@@ -36,20 +39,23 @@ shared uint forced_now;
 // Patch (l, x, y) wants to split by the usual rule (with its hysteresis bit) or is forced.
 bool wants(uint l, uint x, uint y)
 {
-	uint id = first_id(l) + y * (1u << l) + x;
+	uint e = entry_at(l, ivec2(x, y));
+	if (e == NO_ENTRY)
+		return false;
 	vec3 bmin, bmax;
-	box(l, x, y, id, bmin, bmax);
-	return wants_split_by(l, id, distance_to(bmin, bmax), split_prev[id]);
+	box(l, x, y, e, bmin, bmax);
+	return wants_split_by(l, e, distance_to(bmin, bmax), split_prev[e]);
 }
 
-// Whether patch id (level 1 .. L - 6) must split: a chain beside one of its sides.
-bool chain_beside(uint id)
+// Whether the patch of entry e (level 1 .. L - 6) must split: a chain beside one of its
+// sides.
+bool chain_beside(uint e)
 {
 	uint l = 1u;
-	while (first_id(l + 1u) <= id)
+	while (window[l + 1u].z <= e)
 		l++;
-	uint side_n = 1u << l, local = id - first_id(l);
-	ivec2 p = ivec2(local % side_n, local / side_n);
+	uint side_n = 1u << l, local = e - window[l].z;
+	ivec2 p = ivec2(local % window[l].x, local / window[l].x);
 	const ivec2 dirs[4] = ivec2[4](ivec2(0, -1), ivec2(0, 1), ivec2(-1, 0), ivec2(1, 0)); // north, south, west, east
 	for (uint s = 0u; s < 4u; s++) {
 		ivec2 q = p + dirs[s];
@@ -79,14 +85,14 @@ void main()
 {
 	if (pc.levels < 7u)
 		return;
-	uint end = first_id(pc.levels - 5u);
+	uint end = window[pc.levels - 5u].z; // entries of levels 1 .. L - 6 from window[1].z
 	for (;;) {
 		if (gl_LocalInvocationIndex == 0u)
 			forced_now = 0u;
 		barrier();
-		for (uint id = 1u + gl_LocalInvocationIndex; id < end; id += gl_WorkGroupSize.x)
-			if ((split_prev[id] & 2u) == 0u && chain_beside(id)) {
-				atomicOr(split_prev[id], 2u);
+		for (uint e = 1u + gl_LocalInvocationIndex; e < end; e += gl_WorkGroupSize.x)
+			if ((split_prev[e] & 2u) == 0u && chain_beside(e)) {
+				atomicOr(split_prev[e], 2u);
 				atomicAdd(forced_now, 1u);
 			}
 		memoryBarrierBuffer();

@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 // Coarse LOD for one view, one dispatch per level of the tree, one invocation per patch of
 // that level's frontier: the patches all of whose ancestors are in the frustum and want to
 // split (common/lod.c is the CPU reference). So the work follows the tree the view
@@ -33,12 +34,13 @@ layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint curtains; } counters;
 layout(std430, binding = 6) writeonly buffer Wants { uvec2 want[]; }; // id, distance (float bits)
 layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
-// [2][count]: per frame parity, the least distance to the parent's box at which a view of
+// [2][entries]: per frame parity, the least distance to the parent's box at which a view of
 // that frame wanted each resident patch (float bits; the cache's eviction reads it).
 layout(std430, binding = 18) buffer UseDist { uint use_dist[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
-// Level l's frontier at [first_id(l), first_id(l) + its count): (id | 1 << 31 when every
+// Level l's frontier at [window[l].z, window[l].z + its count), at most the level's entries
+// (patch_entry.glsl: EMPTY children without one are not pushed): (id | 1 << 31 when every
 // ancestor is resident with its children there, distance to the parent's box as float bits).
 layout(std430, binding = 20) buffer Frontier { uvec2 frontier[]; };
 // Per level: the VkDispatchIndirectCommand of its pass (x, 1, 1) and its frontier's count (w).
@@ -65,25 +67,31 @@ bool culled(vec3 bmin, vec3 bmax)
 	return false;
 }
 
-bool wants_split(uint l, uint id, float d)
+bool wants_split(uint l, uint e, float d)
 {
-	return wants_split_by(l, id, d, split_prev[id]);
+	return wants_split_by(l, e, d, split_prev[e]);
 }
 
-bool child_missing(uint c) { return info[c].skirt >= 0.0 && layer_of[c] < 0; }
+// Child k (0..3: row-major) of the patch at p of level l: its entry, NO_ENTRY when EMPTY
+// outside its window (never missing, never drawn).
+uint child_entry(uint l, uvec2 p, uint k) { return entry_at(l + 1u, ivec2(2u * p + uvec2(k & 1u, k >> 1u))); }
 
-// Appends the four children of a patch of level l (the first c0, the row below it at
-// c0 + row) to level l + 1's frontier.
-void push_children(uint l, uint c0, uint row, bool reachable, float d)
+bool child_missing(uint c) { return c != NO_ENTRY && info[c].skirt >= 0.0 && layer_of[c] < 0; }
+
+// Appends the children of the patch at p of level l that have entries (the first, c0 its
+// id, the row below it at c0 + row) to level l + 1's frontier.
+void push_children(uint l, uvec2 p, uint c0, uint row, bool reachable, float d)
 {
-	uint n = atomicAdd(passes[l + 1u].w, 4u);
-	atomicMax(passes[l + 1u].x, (n + 4u + 63u) / 64u);
-	uint at = first_id(l + 1u) + n;
+	uint ids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u), m = 0u;
+	for (uint k = 0u; k < 4u; k++)
+		m += child_entry(l, p, k) != NO_ENTRY ? 1u : 0u;
+	uint n = atomicAdd(passes[l + 1u].w, m);
+	atomicMax(passes[l + 1u].x, (n + m + 63u) / 64u);
+	uint at = window[l + 1u].z + n;
 	uint mark = reachable ? 0x80000000u : 0u, dist = floatBitsToUint(d);
-	frontier[at] = uvec2(c0 | mark, dist);
-	frontier[at + 1u] = uvec2((c0 + 1u) | mark, dist);
-	frontier[at + 2u] = uvec2((c0 + row) | mark, dist);
-	frontier[at + 3u] = uvec2((c0 + row + 1u) | mark, dist);
+	for (uint k = 0u; k < 4u; k++)
+		if (child_entry(l, p, k) != NO_ENTRY)
+			frontier[at++] = uvec2(ids[k] | mark, dist);
 }
 
 void main()
@@ -91,17 +99,18 @@ void main()
 	uint l = pc.level;
 	if (gl_GlobalInvocationID.x >= passes[l].w)
 		return;
-	uvec2 e = frontier[first_id(l) + gl_GlobalInvocationID.x];
-	uint id = e.x & 0x7fffffffu;
+	uvec2 f = frontier[window[l].z + gl_GlobalInvocationID.x];
+	uint id = f.x & 0x7fffffffu;
 	uint local = id - first_id(l), side = 1u << l;
 	uint px = local % side, py = local / side;
+	uint e = entry_at(l, ivec2(px, py)); // pushed only with one
 	vec3 bmin, bmax;
-	box(l, px, py, id, bmin, bmax);
+	box(l, px, py, e, bmin, bmax);
 	float d = distance_to(bmin, bmax);
-	float parent_d = l == 0u ? d : uintBitsToFloat(e.y); // the root's own
-	bool wish = wants_split(l, id, d);
-	split_next[id] = wish ? 1u : 0u;
-	if (l > 0u && child_missing(id)) {
+	float parent_d = l == 0u ? d : uintBitsToFloat(f.y); // the root's own
+	bool wish = wants_split(l, e, d);
+	split_next[e] = wish ? 1u : 0u;
+	if (l > 0u && child_missing(e)) {
 		uint n = atomicAdd(counters.wants, 1u);
 		if (n < pc.want_cap)
 			want[n] = uvec2(id, floatBitsToUint(parent_d));
@@ -109,18 +118,19 @@ void main()
 	// A wanted patch is in use even when not drawn (its siblings may still be missing): so
 	// that a cache short of layers does not evict it to make room for its siblings, and
 	// then again them for it, every frame.
-	if (layer_of[id] >= 0) {
-		use_frame[id] = pc.frame;
-		atomicMin(use_dist[(pc.frame & 1u) * patch_count() + id], floatBitsToUint(parent_d));
+	if (layer_of[e] >= 0) {
+		use_frame[e] = pc.frame;
+		atomicMin(use_dist[(pc.frame & 1u) * entry_count() + e], floatBitsToUint(parent_d));
 	}
 	if (culled(bmin, bmax))
 		return;
-	bool reachable = (e.x & 0x80000000u) != 0u && layer_of[id] >= 0;
+	bool reachable = (f.x & 0x80000000u) != 0u && layer_of[e] >= 0;
 	if (wish) {
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
-		bool there = !child_missing(c0) && !child_missing(c0 + 1u) && !child_missing(c0 + row) &&
-		             !child_missing(c0 + row + 1u);
-		push_children(l, c0, row, reachable && there, d);
+		uvec2 p = uvec2(px, py);
+		bool there = !child_missing(child_entry(l, p, 0u)) && !child_missing(child_entry(l, p, 1u)) &&
+		             !child_missing(child_entry(l, p, 2u)) && !child_missing(child_entry(l, p, 3u));
+		push_children(l, p, c0, row, reachable && there, d);
 		if (reachable && there)
 			return; // the children draw this area
 	}
@@ -129,7 +139,7 @@ void main()
 	uint n = atomicAdd(counters.drawn, 1u);
 	Instance it;
 	it.id = id;
-	it.layer = layer_of[id];
+	it.layer = layer_of[e];
 	it.level = l;
 	float q2 = 2.0 * pc.delta_finest; // 2 delta_l = 2 delta_L ratio^(L - l), exact in float
 	for (uint k = l + 1u; k < pc.levels; k++)
@@ -138,15 +148,15 @@ void main()
 	int span = int(pc.P - 1u) << (pc.levels - 1u - l);
 	it.base = ivec2(int(px) * span, int(py) * span) - pc.cell;
 	it.scale = 1 << (pc.levels - 1u - l);
-	it.err = info[id].err;
-	it.skirt = info[id].skirt;
+	it.err = info[e].err;
+	it.skirt = info[e].skirt;
 	it.px = px;
 	it.py = py;
 	it.pad = 0.0;
 	it.frac = pc.frac;
 	it.spacing = pc.spacing;
 	inst[n] = it;
-	drawn[id] = 1u;
+	drawn[e] = 1u;
 	// Sides on the terrain's outer edge hang a curtain (the only skirts: inside, borders
 	// are sealed).
 	for (uint s = 0u; s < 4u; s++) {

@@ -15,18 +15,19 @@ layout(push_constant) uniform Push {
 	uint ratio;
 } pc;
 
-// Patches in the tree: first_id(levels), without shifting 1 by 32 for 16 levels.
-uint patch_count() { return first_id(pc.levels - 1u) + (1u << (2u * (pc.levels - 1u))); }
+// Entries in the tree (patch_entry.glsl): the per-patch buffers' length.
+uint entry_count() { uvec4 w = window[pc.levels - 1u]; return w.z + w.x * w.y; }
 
-void box(uint l, uint px, uint py, uint id, out vec3 bmin, out vec3 bmax)
+// The box of the patch at (px, py) of level l, whose entry is e.
+void box(uint l, uint px, uint py, uint e, out vec3 bmin, out vec3 bmax)
 {
 	int span = int(pc.P - 1u) << (pc.levels - 1u - l);
 	precise float x0 = (float(int(px) * span - pc.cell.x) - pc.frac.x) * pc.spacing.x;
 	precise float y0 = (float(int(py) * span - pc.cell.y) - pc.frac.y) * pc.spacing.y;
 	precise float w = float(span) * pc.spacing.x, h = float(span) * pc.spacing.y;
 	precise float x1 = x0 + w, y1 = y0 + h;
-	bmin = vec3(x0, -y1, info[id].hmin - pc.cam_z);
-	bmax = vec3(x1, -y0, info[id].hmax - pc.cam_z);
+	bmin = vec3(x0, -y1, info[e].hmin - pc.cam_z);
+	bmax = vec3(x1, -y0, info[e].hmax - pc.cam_z);
 }
 
 float distance_to(vec3 bmin, vec3 bmax)
@@ -36,13 +37,13 @@ float distance_to(vec3 bmin, vec3 bmax)
 	return sqrt(d2);
 }
 
-// Whether patch id (level l, at distance d from the camera) wants to split, given its
+// Whether the patch of entry e (level l, at distance d from the camera) wants to split, given its
 // split state from the view's last frame (`prev`): bit 0 split then (hysteresis), bit 1
 // forced this frame by lod_force.comp (a patch 5 levels finer would be drawn beside it).
-bool wants_split_by(uint l, uint id, float d, uint prev)
+bool wants_split_by(uint l, uint e, float d, uint prev)
 {
 	if (l + 1u >= pc.levels)
 		return false;
-	precise float err = d > 0.0 ? info[id].err * pc.kappa / d : 1.0 / 0.0;
+	precise float err = d > 0.0 ? info[e].err * pc.kappa / d : 1.0 / 0.0;
 	return (prev & 2u) != 0u || err > pc.tau || ((prev & 1u) != 0u && err > 0.8 * pc.tau);
 }

@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 #include "terrain_draw.glsl"
 // One sun, a height ramp (water-level green to snow) and rock on steep slopes. The normal
 // and the height that picks the colour come from the patch's maps at this fragment

@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 #include "terrain_draw.glsl"
 // Passes the quad's corners through and sets the factors lod_factors.comp computed for it
 // this frame (terrain_factors.glsl and terrain_seal.glsl have the method).

@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 #include "terrain_draw.glsl"
 #include "terrain_factors.glsl"
 #include "terrain_seal.glsl"

@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
+#include "patch_entry.glsl"
 #include "terrain_draw.glsl"
 // No vertex buffer. Quad patch i of the frame (quad_of(): the drawn patches' blocks, then
 // the terrain-edge curtains) is instance gl_InstanceIndex of the draw record whose

@@ -1,4 +1,5 @@
 // Bindings, push constants and helpers of the terrain draw stages (common/gpu/terrain_internal.h).
+// Needs patch_entry.glsl (per-patch buffers by entry).
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
 layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
@@ -8,7 +9,7 @@ layout(std430, binding = 5) readonly buffer Counters {
 	uint face_culled; uint found; float near_high;
 	uint draw_culled; // back faces culled in this frame's draws (lod_commands.comp)
 } counters;
-layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame
+layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame, by entry
 layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
 // The view-projection the picture is drawn with; equal to pc.vp unless the level of detail
 // was chosen for another camera (relief_draw_options.lod_view). pc.vp stays the LOD's.
@@ -74,29 +75,40 @@ ivec2 neighbour_at(Instance it, uint side)
 	                            : side == 2u ? ivec2(-1, 0) : ivec2(1, 0));
 }
 
-// The patch at the same level across border `side`, or -1 beyond the terrain's edge.
-int neighbour_id(Instance it, uint side)
+// Whether the patch across border `side` at the same level lies inside the terrain's grid.
+bool has_neighbour(Instance it, uint side)
 {
 	int n = 1 << it.level;
 	ivec2 q = neighbour_at(it, side);
-	if (q.x < 0 || q.y < 0 || q.x >= n || q.y >= n)
-		return -1;
-	return int(first_id(it.level)) + q.y * n + q.x;
+	return q.x >= 0 && q.y >= 0 && q.x < n && q.y < n;
+}
+
+// The entry of the patch across border `side` at the same level, or NO_ENTRY (beyond the
+// terrain's edge, or EMPTY).
+uint neighbour_entry(Instance it, uint side)
+{
+	return has_neighbour(it, side) ? entry_at(it.level, neighbour_at(it, side)) : NO_ENTRY;
+}
+
+// Whether the patch at q of `level` is drawn by this view (one without an entry never is).
+bool drawn_at(uint level, ivec2 q)
+{
+	uint e = entry_at(level, q);
+	return e != NO_ENTRY && drawn[e] != 0u;
 }
 
 // For cell q of `level` (inside the terrain): when the patch there is not drawn but one of
-// its ancestors is, that ancestor's id and the level difference j >= 1; otherwise 0 (drawn
-// at this level, drawn finer, or culled).
-uint drawn_above(uint level, ivec2 q, out uint id)
+// its ancestors is, that ancestor's entry and the level difference j >= 1; otherwise 0
+// (drawn at this level, drawn finer, or culled).
+uint drawn_above(uint level, ivec2 q, out uint entry)
 {
-	id = 0u;
-	if (drawn[first_id(level) + uint(q.y) * (1u << level) + uint(q.x)] != 0u)
+	entry = 0u;
+	if (drawn_at(level, q))
 		return 0u;
 	for (uint j = 1u; j <= level; j++) {
 		uint l = level - j;
-		uint a = first_id(l) + uint(q.y >> j) * (1u << l) + uint(q.x >> j);
-		if (drawn[a] != 0u) {
-			id = a;
+		if (drawn_at(l, q >> j)) {
+			entry = entry_at(l, q >> j);
 			return j;
 		}
 	}
@@ -104,10 +116,10 @@ uint drawn_above(uint level, ivec2 q, out uint id)
 }
 
 // drawn_above() for the neighbour across border `side`; 0 beyond the terrain's edge.
-uint coarser_across(Instance it, uint side, out uint cid)
+uint coarser_across(Instance it, uint side, out uint ce)
 {
-	cid = 0u;
-	return neighbour_id(it, side) < 0 ? 0u : drawn_above(it.level, neighbour_at(it, side), cid);
+	ce = 0u;
+	return has_neighbour(it, side) ? drawn_above(it.level, neighbour_at(it, side), ce) : 0u;
 }
 
 // Height in metres of sample m of patch `it` (its quantum times q2, the same operations

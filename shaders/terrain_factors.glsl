@@ -184,12 +184,12 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 // they are drawn side by side their border vertices coincide (no T-junction, no skirt).
 void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout vec2 range)
 {
-	int nid = neighbour_id(it, side);
-	if (nid < 0 || layer_of[nid] < 0)
+	uint ne = neighbour_entry(it, side);
+	if (ne == NO_ENTRY || layer_of[ne] < 0)
 		return;
 	ivec2 across = border_block(side ^ 1u, side >= 2u ? bl.y : bl.x); // its block facing bl
-	eps = max(eps, block_eps_at(layer_of[nid], across));
-	vec2 r = block_range_at(layer_of[nid], across);
+	eps = max(eps, block_eps_at(layer_of[ne], across));
+	vec2 r = block_range_at(layer_of[ne], across);
 	range = vec2(min(range.x, r.x), max(range.y, r.y));
 }
 

@@ -11,22 +11,22 @@
 // 2^j / blocks patches share it and each is looked at.
 uint finer_across(Instance it, ivec2 bl, uint side)
 {
-	if (neighbour_id(it, side) < 0)
+	if (!has_neighbour(it, side))
 		return 0u;
 	ivec2 q = neighbour_at(it, side);
-	if (drawn[first_id(it.level) + uint(q.y) * (1u << it.level) + uint(q.x)] != 0u)
+	if (drawn_at(it.level, q))
 		return 0u;
 	int b = int(pc.blocks), along = side >= 2u ? bl.y : bl.x;
 	uint found = 0u;
 	for (uint j = 1u;; j++) {
 		uint l = it.level + j;
-		if (first_id(l) >= uint(drawn.length()))
+		if (l >= uint(window.length()) || window[l].x == 0u)
 			break; // finer than the finest level
 		// cells per side at level l; those along bl: a0 .. a0 + n - 1
 		int m = 1 << j, a0 = along * m / b, n = max(m / b, 1);
 		for (int a = a0; a < a0 + n; a++) {
 			ivec2 c = facing_cell(q, m, side, a);
-			if (drawn[first_id(l) + uint(c.y) * (1u << l) + uint(c.x)] != 0u)
+			if (drawn_at(l, c))
 				found = j;
 		}
 		if (found >= uint(findMSB(BLOCK_CELLS)) || (j <= uint(findMSB(b)) && found != 0u))
@@ -66,14 +66,15 @@ Instance coarser_at(Instance it, uint j, ivec2 q)
 	return c;
 }
 
-// Instance of the coarser patch cid, j levels above `it` at q, as its own selection wrote it.
-Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
+// Instance of the coarser patch (entry ce), j levels above `it` at q, as its own selection
+// wrote it.
+Instance coarser_instance(Instance it, uint ce, uint j, ivec2 q)
 {
 	Instance c = coarser_at(it, j, q);
-	c.id = cid;
-	c.layer = layer_of[cid];
-	c.err = info[cid].err;
-	c.skirt = info[cid].skirt;
+	c.id = first_id(c.level) + uint(q.y) * (1u << c.level) + uint(q.x);
+	c.layer = layer_of[ce];
+	c.err = info[ce].err;
+	c.skirt = info[ce].skirt;
 	return c;
 }
 
@@ -84,16 +85,16 @@ Instance coarser_instance(Instance it, uint cid, uint j, ivec2 q)
 // skirt.
 uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer, out uint cmorph)
 {
-	uint cid;
-	uint j = coarser_across(it, side, cid);
+	uint ce;
+	uint j = coarser_across(it, side, ce);
 	fc = 0.0;
 	clayer = -1;
 	cmorph = MORPH_FULL;
 	if (j == 0u)
 		return 0u;
-	clayer = layer_of[cid];
+	clayer = layer_of[ce];
 	ivec2 q = neighbour_at(it, side) >> j;
-	Instance c = coarser_instance(it, cid, j, q);
+	Instance c = coarser_instance(it, ce, j, q);
 	int b = int(pc.blocks);
 	// This block's index along the border in the level's blocks, then in the coarser
 	// patch's: a coarser block spans 2^j of ours.

@@ -77,10 +77,10 @@ struct fly_stats {
 /* Adds the levels of the patches view tv drew in its last frame to levels[]. */
 static int count_levels(const struct relief_file *f, struct relief_terrain_view *tv, uint32_t *levels)
 {
-	uint32_t *ids = malloc(sizeof(uint32_t) * f->hdr.patch_count);
+	uint32_t *ids = malloc(sizeof(uint32_t) * f->hdr.index_records); /* drawn patches have entries */
 	if (!ids)
 		return -ENOMEM;
-	int n = relief_terrain_view_drawn(tv, ids, f->hdr.patch_count);
+	int n = relief_terrain_view_drawn(tv, ids, f->hdr.index_records);
 	for (int k = 0; k < n; k++) {
 		uint32_t l, px, py;
 		if (relief_patch_coords(&f->layout, ids[k], &l, &px, &py))

@@ -83,7 +83,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 		c->o.keep_frames = 2;
 	c->P = f->layout.geom.P;
 	c->E = f->layout.geom.E;
-	c->count = f->hdr.patch_count;
+	c->count = f->hdr.index_records;
 	c->block_floats = relief_patch_block_floats(c->P);
 	c->mask_ints = ((size_t)c->P * c->P + 3) / 4;
 	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->mask_ints + c->block_floats;
@@ -99,10 +99,10 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	if (!c->state || !c->layer || !c->last_used || !c->children || !c->pins || !c->queued || !c->queued_prio)
 		goto fail;
 	uint32_t drawable = 0;
-	for (uint32_t id = 0; id < c->count; id++) {
+	for (uint32_t e = 0; e < c->count; e++) {
 		struct relief_patch_record r;
-		relief_file_record(f, id, &r);
-		c->state[id] = (r.flags & RELIEF_PATCH_EMPTY) ? RELIEF_PATCH_NONE : RELIEF_PATCH_ABSENT;
+		relief_file_record(f, relief_index_patch(&f->hdr, e), &r);
+		c->state[e] = (r.flags & RELIEF_PATCH_EMPTY) ? RELIEF_PATCH_NONE : RELIEF_PATCH_ABSENT;
 		drawable += !(r.flags & RELIEF_PATCH_EMPTY);
 	}
 
@@ -239,26 +239,30 @@ static int queue_push_with_ancestors(struct relief_patch_cache *c, uint32_t id, 
 {
 	int ret = patch_queue_push(c, priority, id);
 	if (ret == 0) {
-		c->queued[id] = 1;
-		c->queued_prio[id] = priority;
+		c->queued[ent(c, id)] = 1;
+		c->queued_prio[ent(c, id)] = priority;
 	}
 	float ahead = priority;
 	for (uint32_t a = id; ret == 0 && a != 0;) {
 		a = parent_of(c, a);
-		if (!c->queued[a])
+		const uint32_t ae = ent(c, a);
+		if (!c->queued[ae])
 			break;
 		ahead = fminf(ahead - 1.0f, nextafterf(ahead, -INFINITY)); /* strictly ahead, any magnitude */
-		if (ahead < c->queued_prio[a] && (ret = patch_queue_push(c, ahead, a)) == 0)
-			c->queued_prio[a] = ahead;
+		if (ahead < c->queued_prio[ae] && (ret = patch_queue_push(c, ahead, a)) == 0)
+			c->queued_prio[ae] = ahead;
 	}
 	return ret;
 }
 
 int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float priority)
 {
-	if (id >= c->count)
+	if (id >= c->file->hdr.patch_count)
 		return -EINVAL;
-	switch (c->state[id]) {
+	const uint32_t e = ent(c, id);
+	if (e == UINT32_MAX)
+		return -ENOENT; /* EMPTY */
+	switch (c->state[e]) {
 	case RELIEF_PATCH_NONE:
 		return -ENOENT;
 	case RELIEF_PATCH_BAD:
@@ -271,11 +275,11 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 		 * worker if it still waits for it (an error here, no memory for the heap, leaves
 		 * the earlier entry, still valid), else when layers are handed out (update()). */
 		pthread_mutex_lock(&c->lock);
-		if (priority < c->queued_prio[id]) {
-			if (c->queued[id])
+		if (priority < c->queued_prio[e]) {
+			if (c->queued[e])
 				queue_push_with_ancestors(c, id, priority);
 			else
-				c->queued_prio[id] = priority;
+				c->queued_prio[e] = priority;
 		}
 		pthread_mutex_unlock(&c->lock);
 		return 0;
@@ -284,25 +288,25 @@ int relief_patch_cache_request(struct relief_patch_cache *c, uint32_t id, float 
 		return 0;
 	}
 	if (id != 0) {
-		uint32_t parent = parent_of(c, id);
-		if (!on_its_way(c->state[parent])) {
+		uint32_t parent = parent_of(c, id); /* a patch's parent has an entry when it has one */
+		if (!on_its_way(c->state[ent(c, parent)])) {
 			int ret = relief_patch_cache_request(c, parent, priority - 1.0f);
 			return ret == 0 || ret == -EAGAIN ? -EAGAIN : ret;
 		}
-		c->pins[parent]++;
+		c->pins[ent(c, parent)]++;
 	}
-	c->state[id] = RELIEF_PATCH_QUEUED;
+	c->state[e] = RELIEF_PATCH_QUEUED;
 	pthread_mutex_lock(&c->lock);
 	int ret = queue_push_with_ancestors(c, id, priority);
 	if (ret == 0)
 		pthread_cond_signal(&c->work);
 	else
-		c->queued[id] = 0;
+		c->queued[e] = 0;
 	pthread_mutex_unlock(&c->lock);
 	if (ret < 0) {
-		c->state[id] = RELIEF_PATCH_ABSENT;
+		c->state[e] = RELIEF_PATCH_ABSENT;
 		if (id != 0)
-			c->pins[parent_of(c, id)]--;
+			c->pins[ent(c, parent_of(c, id))]--;
 	}
 	return ret;
 }
@@ -316,8 +320,9 @@ uint32_t relief_patch_cache_use_dist_half(struct relief_patch_cache *c, uint64_t
 
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame)
 {
-	if (id < c->count && c->last_used[id] < frame)
-		c->last_used[id] = frame;
+	uint32_t e = id < c->file->hdr.patch_count ? ent(c, id) : UINT32_MAX;
+	if (e != UINT32_MAX && c->last_used[e] < frame)
+		c->last_used[e] = frame;
 }
 
 /* ---- layers ---- */
@@ -326,15 +331,18 @@ void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_
  * on a discrete GPU); layer_table is what the shaders read. Only this writes either. */
 static void set_layer(struct relief_patch_cache *c, uint32_t id, int32_t layer)
 {
-	c->layer[id] = layer;
-	((int32_t *)c->layer_table.map)[id] = layer;
+	c->layer[ent(c, id)] = layer;
+	((int32_t *)c->layer_table.map)[ent(c, id)] = layer;
 }
 
 /* The resident patch whose layer may go: nothing depends on it (no resident child, no
  * child on its way, not the root) and it is not being decoded. */
 static bool evictable(const struct relief_patch_cache *c, int32_t id)
 {
-	return id > 0 && c->state[id] == RELIEF_PATCH_RESIDENT && !c->children[id] && !c->pins[id];
+	if (id <= 0)
+		return false;
+	const uint32_t e = ent(c, (uint32_t)id);
+	return c->state[e] == RELIEF_PATCH_RESIDENT && !c->children[e] && !c->pins[e];
 }
 
 /* A layer for a patch requested with `priority`, or -1. */
@@ -353,7 +361,8 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame, float p
 		int32_t id = c->owner[i];
 		if (!evictable(c, id))
 			continue;
-		uint64_t used = c->last_used[id] > gpu_use[id] ? c->last_used[id] : gpu_use[id];
+		const uint32_t e = ent(c, (uint32_t)id);
+		uint64_t used = c->last_used[e] > gpu_use[e] ? c->last_used[e] : gpu_use[e];
 		if (used + c->o.keep_frames >= frame)
 			continue;
 		if (used < oldest) {
@@ -370,10 +379,13 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame, float p
 		float farthest = 2.0f * priority;
 		for (uint32_t i = 0; i < c->pool.layers; i++) {
 			int32_t id = c->owner[i];
-			if (!evictable(c, id) || gpu_use[id] != stamp || dist[id] == UINT32_MAX)
+			if (!evictable(c, id))
+				continue;
+			const uint32_t e = ent(c, (uint32_t)id);
+			if (gpu_use[e] != stamp || dist[e] == UINT32_MAX)
 				continue;
 			float d;
-			memcpy(&d, &dist[id], sizeof(d));
+			memcpy(&d, &dist[e], sizeof(d));
 			if (d > farthest) {
 				farthest = d;
 				best = (int32_t)i;
@@ -383,9 +395,9 @@ static int32_t alloc_layer(struct relief_patch_cache *c, uint64_t frame, float p
 	if (best < 0)
 		return -1;
 	uint32_t id = (uint32_t)c->owner[best];
-	c->state[id] = RELIEF_PATCH_ABSENT;
+	c->state[ent(c, id)] = RELIEF_PATCH_ABSENT;
 	set_layer(c, id, -1);
-	c->children[parent_of(c, id)]--;
+	c->children[ent(c, parent_of(c, id))]--;
 	c->owner[best] = -1;
 	c->stats.evicted++;
 	return best;
@@ -395,14 +407,14 @@ static void mark_bad(struct relief_patch_cache *c, uint32_t id, int why)
 {
 	uint32_t l, px, py;
 	relief_patch_coords(&c->file->layout, id, &l, &px, &py);
-	c->state[id] = RELIEF_PATCH_BAD; /* final: logged exactly once */
+	c->state[ent(c, id)] = RELIEF_PATCH_BAD; /* final: logged exactly once */
 	c->stats.bad++;
 	relief_log(&c->log, RELIEF_LOG_ERROR, "%s: patch %u (level %u, %u,%u): %s; its parent keeps serving the area",
 	           relief_file_name(c->file), id, l, px, py,
 	           why == -EBADMSG ? "corrupt (checksum or values)" : why == -EIO ? "missing from the file"
 	                                                           : "cannot be decoded");
 	if (id != 0)
-		c->pins[parent_of(c, id)]--;
+		c->pins[ent(c, parent_of(c, id))]--;
 }
 
 static void release_slot(struct relief_patch_cache *c, uint32_t slot)
@@ -420,9 +432,9 @@ static void sort_pending(struct relief_patch_cache *c)
 {
 	for (uint32_t i = 1; i < c->n_pending; i++) {
 		struct job j = c->pending[i];
-		float p = c->queued_prio[j.id];
+		float p = c->queued_prio[ent(c, j.id)];
 		uint32_t k = i;
-		for (; k > 0 && c->queued_prio[c->pending[k - 1].id] > p; k--)
+		for (; k > 0 && c->queued_prio[ent(c, c->pending[k - 1].id)] > p; k--)
 			c->pending[k] = c->pending[k - 1];
 		c->pending[k] = j;
 	}
@@ -446,28 +458,28 @@ static void retire(struct relief_patch_cache *c, struct batch *b, uint64_t frame
 {
 	const uint32_t *flags = c->flags.map;
 	for (uint32_t i = 0; i < b->n; i++) {
-		uint32_t id = b->jobs[i].id, layer = b->layers[i];
-		uint32_t parent = id ? parent_of(c, id) : 0;
+		uint32_t id = b->jobs[i].id, layer = b->layers[i], e = ent(c, id);
+		uint32_t pe = ent(c, id ? parent_of(c, id) : 0);
 		/* Decoded from a parent that turned out bad (or was dropped in turn) in an earlier
 		 * batch: not this patch's fault, and not usable; it may be requested again. */
-		bool orphan = id != 0 && c->state[parent] != RELIEF_PATCH_RESIDENT;
+		bool orphan = id != 0 && c->state[pe] != RELIEF_PATCH_RESIDENT;
 		if (orphan || flags[b->jobs[i].slot]) {
 			c->owner[layer] = -1;
 			c->free_layers[c->n_free_layers++] = layer;
 			if (orphan) {
-				c->state[id] = RELIEF_PATCH_ABSENT;
-				c->pins[parent]--;
+				c->state[e] = RELIEF_PATCH_ABSENT;
+				c->pins[pe]--;
 			} else {
 				mark_bad(c, id, -EBADMSG);
 			}
 		} else {
-			c->state[id] = RELIEF_PATCH_RESIDENT;
+			c->state[e] = RELIEF_PATCH_RESIDENT;
 			set_layer(c, id, (int32_t)layer);
-			if (c->last_used[id] < frame)
-				c->last_used[id] = frame;
+			if (c->last_used[e] < frame)
+				c->last_used[e] = frame;
 			if (id != 0) {
-				c->children[parent]++;
-				c->pins[parent]--;
+				c->children[pe]++;
+				c->pins[pe]--;
 			}
 			c->stats.decoded++;
 			(*made)++;
@@ -522,7 +534,7 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 			mark_bad(c, ready[i].id, ready[i].result);
 			release_slot(c, ready[i].slot);
 		} else {
-			c->state[ready[i].id] = RELIEF_PATCH_DECODING;
+			c->state[ent(c, ready[i].id)] = RELIEF_PATCH_DECODING;
 			c->pending[c->n_pending++] = ready[i];
 		}
 	}
@@ -541,21 +553,21 @@ int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame)
 		uint32_t kept = 0;
 		for (uint32_t k = 0; k < c->n_pending; k++) {
 			struct job j = c->pending[k];
-			uint32_t parent = j.id ? parent_of(c, j.id) : 0;
-			uint8_t ps = j.id ? c->state[parent] : RELIEF_PATCH_RESIDENT;
+			uint32_t parent = j.id ? parent_of(c, j.id) : 0, pe = ent(c, parent);
+			uint8_t ps = j.id ? c->state[pe] : RELIEF_PATCH_RESIDENT;
 			if (!on_its_way(ps)) {
 				/* The parent went bad, or was dropped for that reason itself: an ancestor
 				 * serves the area; the request may be made again later. */
-				c->state[j.id] = RELIEF_PATCH_ABSENT;
-				c->pins[parent]--;
+				c->state[ent(c, j.id)] = RELIEF_PATCH_ABSENT;
+				c->pins[pe]--;
 				release_slot(c, j.slot);
 				continue;
 			}
 			int32_t layer = -1, parent_layer = 0;
 			if (j.id)
-				parent_layer = ps == RELIEF_PATCH_RESIDENT ? c->layer[parent] : in_flight_layer(c, parent);
+				parent_layer = ps == RELIEF_PATCH_RESIDENT ? c->layer[pe] : in_flight_layer(c, parent);
 			if (parent_layer >= 0 && b->n < c->o.batch && !no_layer)
-				no_layer = (layer = alloc_layer(c, frame, c->queued_prio[j.id])) < 0;
+				no_layer = (layer = alloc_layer(c, frame, c->queued_prio[ent(c, j.id)])) < 0;
 			if (layer < 0) {
 				c->pending[kept++] = j;
 				continue;
@@ -616,12 +628,14 @@ int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame)
 
 enum relief_patch_state relief_patch_cache_state(const struct relief_patch_cache *c, uint32_t id)
 {
-	return id < c->count ? (enum relief_patch_state)c->state[id] : RELIEF_PATCH_NONE;
+	uint32_t e = id < c->file->hdr.patch_count ? ent(c, id) : UINT32_MAX;
+	return e != UINT32_MAX ? (enum relief_patch_state)c->state[e] : RELIEF_PATCH_NONE;
 }
 
 int relief_patch_cache_layer(const struct relief_patch_cache *c, uint32_t id)
 {
-	return id < c->count && c->state[id] == RELIEF_PATCH_RESIDENT ? c->layer[id] : -1;
+	uint32_t e = id < c->file->hdr.patch_count ? ent(c, id) : UINT32_MAX;
+	return e != UINT32_MAX && c->state[e] == RELIEF_PATCH_RESIDENT ? c->layer[e] : -1;
 }
 
 void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_patch_cache_stats *s)

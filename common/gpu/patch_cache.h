@@ -86,14 +86,16 @@ struct relief_patch_pool {
 	VkImageView normals;      /* 2D array, R32_UINT (packed snorm8 x 4), P^2 */
 	VkBuffer block_errors;    /* per layer: its block record (relief_patch_block_floats()) */
 	uint32_t layers;
-	/* int32[patch_count]: the layer of each resident patch, -1 otherwise; host-visible,
+	/* The per-patch tables have one element per entry, the patch's record number in the
+	 * file's index (relief_index_entry()): EMPTY patches outside the raster have none.
+	 * int32[index_records]: the layer of each resident patch, -1 otherwise; host-visible,
 	 * kept current by the cache, read by the LOD selection on the GPU. */
 	VkBuffer layer_table;
-	/* uint32[patch_count]: the last frame a view wanted each resident patch (drew it, or
+	/* uint32[index_records]: the last frame a view wanted each resident patch (drew it, or
 	 * would once its siblings arrive), written by the LOD selection on the GPU; eviction
 	 * treats it like relief_patch_cache_touch(). */
 	VkBuffer use_table;
-	/* uint32[2][patch_count], host-visible: for the frames of each parity (the half
+	/* uint32[2][index_records], host-visible: for the frames of each parity (the half
 	 * relief_patch_cache_use_dist_half() names), the least distance from a view's camera to
 	 * the box of a wanted resident patch's parent (float bits; the LOD selection writes it
 	 * with atomicMin, UINT32_MAX: no view wanted it). With no unused layer left, a request

@@ -55,7 +55,7 @@ struct relief_patch_cache {
 	const struct relief_file *file;  /* borrowed */
 	struct relief_logger log;
 	struct relief_patch_cache_options o;
-	uint32_t P, E, count;
+	uint32_t P, E, count; /* count: entries (relief_index_entry()), the per-patch arrays' length */
 	size_t block_floats;             /* floats per layer: its block record (relief_patch_block_floats()) */
 	size_t slot_ints;                /* labels, values, mask, block errors and ranges */
 	size_t mask_ints;                /* P^2 validity bytes, four per int */
@@ -84,7 +84,7 @@ struct relief_patch_cache {
 	uint64_t dist_frame; /* the frame whose use_dist half was last reset, 0: none yet */
 	uint32_t holds;      /* frames in flight that read the tables (relief_patch_cache_hold()) */
 
-	/* render-thread state, per patch */
+	/* render-thread state, per patch entry (ent()) */
 	uint8_t *state;
 	int32_t *layer; /* layer of each resident patch, -1 otherwise; mirrored to layer_table */
 	uint64_t *last_used;
@@ -104,8 +104,8 @@ struct relief_patch_cache {
 	struct request *heap;
 	uint32_t n_heap, cap_heap;
 	uint32_t heap_live; /* entries left by the last compaction (patch_worker.c) */
-	uint8_t *queued;
-	float *queued_prio; /* a queued or decoding patch's most urgent request priority */
+	uint8_t *queued;    /* per entry */
+	float *queued_prio; /* per entry: a queued or decoding patch's most urgent request priority */
 	uint32_t *free_slots, n_free_slots;
 	struct job *ready;
 	uint32_t n_ready;
@@ -115,6 +115,14 @@ struct relief_patch_cache {
 	uint32_t n_threads; /* workers started */
 	pthread_t threads[RELIEF_PATCH_CACHE_MAX_WORKERS];
 };
+
+/* Patch id's entry, the index of its element in the per-patch arrays (and the GPU's
+ * tables); UINT32_MAX for a patch without one (EMPTY: never requested, never resident).
+ * The cache's jobs, requests and layer owners carry patch ids. */
+static inline uint32_t ent(const struct relief_patch_cache *c, uint32_t id)
+{
+	return relief_index_entry(&c->file->hdr, id);
+}
 
 static inline uint32_t parent_of(const struct relief_patch_cache *c, uint32_t id)
 {

@@ -37,7 +37,7 @@ static void heap_compact(struct relief_patch_cache *c)
 {
 	uint32_t n = 0;
 	for (uint32_t i = 0; i < c->n_heap; i++)
-		if (c->queued[c->heap[i].id] && c->heap[i].prio == c->queued_prio[c->heap[i].id])
+		if (c->queued[ent(c, c->heap[i].id)] && c->heap[i].prio == c->queued_prio[ent(c, c->heap[i].id)])
 			c->heap[n++] = c->heap[i];
 	c->n_heap = 0;
 	for (uint32_t i = 0; i < n; i++)
@@ -143,9 +143,9 @@ void *patch_worker_main(void *data)
 		if (c->stop)
 			break;
 		struct request r = heap_pop(c);
-		if (!c->queued[r.id])
+		if (!c->queued[ent(c, r.id)])
 			continue; /* a duplicate of a request already served */
-		c->queued[r.id] = 0;
+		c->queued[ent(c, r.id)] = 0;
 		uint32_t slot = c->free_slots[--c->n_free_slots];
 		c->in_worker++;
 		pthread_mutex_unlock(&c->lock);

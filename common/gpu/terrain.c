@@ -81,7 +81,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	t->vk = vk;
 	t->file = f;
 	t->cache = cache;
-	t->count = f->hdr.patch_count;
+	t->count = f->hdr.index_records;
 	t->blocks = f->layout.blocks;
 	t->per_patch = t->blocks * t->blocks;
 	t->per_draw = RELIEF_VK_MAX_TESS_VERTICES_PER_DRAW / MAX_VERTICES_PER_QUAD;
@@ -100,11 +100,12 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		ret = -ENOMEM;
 		goto fail;
 	}
-	for (uint32_t id = 0; id < t->count; id++) {
+	for (uint32_t e = 0; e < t->count; e++) {
+		uint32_t id = relief_index_patch(&f->hdr, e);
 		struct relief_patch_record r;
 		relief_file_record(f, id, &r);
 		bool empty = r.flags & RELIEF_PATCH_EMPTY;
-		info[id] = (struct patch_info){ r.height_min, r.height_max, r.error, empty ? -1.0f : skirt_depth(f, id, &r) };
+		info[e] = (struct patch_info){ r.height_min, r.height_max, r.error, empty ? -1.0f : skirt_depth(f, id, &r) };
 	}
 	if ((ret = relief_vk_buffer_init(vk, &t->info, sizeof(*info) * t->count,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
@@ -112,6 +113,18 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		ret = relief_vk_buffer_upload(vk, &t->info, info, sizeof(*info) * t->count);
 	free(info);
 	if (ret < 0)
+		goto fail;
+	/* The index windows (shaders/patch_entry.glsl); levels beyond the tree have none. */
+	uint32_t windows[RELIEF_MAX_LEVELS][4];
+	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++) {
+		bool in = l < f->hdr.levels;
+		memcpy(windows[l], (uint32_t[4]){ in ? f->hdr.index_cols[l] : 0, in ? f->hdr.index_rows[l] : 0,
+		                                  in ? f->hdr.index_first[l] : t->count, 0 }, sizeof(windows[l]));
+	}
+	if ((ret = relief_vk_buffer_init(vk, &t->windows, sizeof(windows),
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 RELIEF_VK_MEMORY_DEVICE)) < 0 ||
+	    (ret = relief_vk_buffer_upload(vk, &t->windows, windows, sizeof(windows))) < 0)
 		goto fail;
 
 	VkDescriptorSetLayoutBinding b[BINDINGS];
@@ -169,6 +182,11 @@ fail:
 	return ret;
 }
 
+uint64_t relief_terrain_bytes(const struct relief_terrain *t)
+{
+	return t->info.size + t->windows.size;
+}
+
 void relief_terrain_destroy(struct relief_terrain *t)
 {
 	if (!t)
@@ -186,5 +204,6 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (t->set_layout)
 		vkDestroyDescriptorSetLayout(dev, t->set_layout, NULL);
 	relief_vk_buffer_finish(t->vk, &t->info);
+	relief_vk_buffer_finish(t->vk, &t->windows);
 	free(t);
 }

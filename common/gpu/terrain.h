@@ -45,6 +45,13 @@ void relief_terrain_destroy(struct relief_terrain *t);
 int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_view **out);
 void relief_terrain_view_destroy(struct relief_terrain_view *v);
 
+/* Buffer memory a terrain holds besides its cache (patch info and index windows: 16 bytes
+ * per index entry), and one view holds (its per-patch buffers, 20 bytes per entry, and
+ * those sized by the cache's layers), in bytes. Per-patch buffers have one element per
+ * index entry (relief_index_entry()), so both follow the data, not the square tree. */
+uint64_t relief_terrain_bytes(const struct relief_terrain *t);
+uint64_t relief_terrain_view_bytes(const struct relief_terrain_view *v);
+
 /* How blocks are tessellated: relief's rule, or the baselines of `relief bench lod`. */
 enum relief_fine_lod {
 	RELIEF_FINE_ERRORS = 0,   /* block errors against tau (the method) */

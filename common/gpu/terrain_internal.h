@@ -105,7 +105,9 @@ struct draw_camera {
 #define MODE_SKIP_CLIPPED 128u
 #define MODE_CLIPPED_LIST 256u
 
-/* One descriptor set for every stage. Bindings: 0 patch info, 1 layer table, 2-3 split
+/* One descriptor set for every stage. Per-patch buffers have one element per entry, a
+ * patch's record number in the file's index (relief_index_entry(); shaders/patch_entry.glsl).
+ * Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
  * 13 tessellation factors and morph bytes (uvec4 per quad, lod_factors.comp), 14 curtains
@@ -115,8 +117,9 @@ struct draw_camera {
  * 18 the cache's use distances (patch_cache.h, pool.use_dist),
  * 19 the clipped list (a count, then the indices of quads the rasteriser may clip,
  * lod_factors.comp), 20 the selection's frontiers (uvec2 per patch, lod_select.comp),
- * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count). */
-#define BINDINGS 22u
+ * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count),
+ * 22 the index windows (per level: entry columns, rows, first entry, 0). */
+#define BINDINGS 23u
 #define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
 
 static inline VkDescriptorType binding_type(uint32_t i)
@@ -128,7 +131,7 @@ struct relief_terrain {
 	struct relief_vk *vk;
 	const struct relief_file *file;
 	struct relief_patch_cache *cache;
-	struct relief_vk_buffer info;
+	struct relief_vk_buffer info, windows;
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
@@ -136,6 +139,7 @@ struct relief_terrain {
 	VkPipeline select, force, commands, borders, factors, draw_fill, draw_cull, draw_wire;
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
 	 * at most (every layer drawn, each with four curtains: a loose bound) */
+	/* count: entries (per-patch buffers' length) */
 	uint32_t count, blocks, per_patch, per_draw, max_patches, max_quads, max_draws;
 };
 

@@ -74,7 +74,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->clipped.buffer,
-		                            v->frontier.buffer, v->passes.buffer };
+		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -152,6 +152,11 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_group_finish(vk, &v->local);
 	relief_vk_buffer_group_finish(vk, &v->readback);
 	free(v);
+}
+
+uint64_t relief_terrain_view_bytes(const struct relief_terrain_view *v)
+{
+	return v->local.size + v->readback.size;
 }
 
 int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint32_t cap)

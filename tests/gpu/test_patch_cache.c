@@ -623,8 +623,8 @@ static void poison_stream(struct terrain *t, uint32_t id)
 	struct relief_layout lay;
 	char err[256];
 	assert_int_equal(relief_header_parse(t->img, t->size, &h, &lay, err, sizeof(err)), 0);
-	assert_int_not_equal(relief_index_slot(&h, id), UINT32_MAX);
-	uint8_t *rec = t->img + h.index_offset + (uint64_t)relief_index_slot(&h, id) * RELIEF_INDEX_RECORD_SIZE;
+	assert_int_not_equal(relief_index_entry(&h, id), UINT32_MAX);
+	uint8_t *rec = t->img + h.index_offset + (uint64_t)relief_index_entry(&h, id) * RELIEF_INDEX_RECORD_SIZE;
 	struct relief_patch_record r;
 	relief_record_read(rec, &r);
 	assert_true(out_size <= r.size); /* fits where the old stream was */

@@ -202,7 +202,7 @@ static int open_with_record(uint32_t id, void (*edit)(struct relief_patch_record
 	struct relief_file *f;
 	assert_int_equal(relief_file_open_memory(img, img_size, &f, err, n), 0);
 	uint64_t idx = f->hdr.index_offset;
-	uint32_t count = f->hdr.index_records, rec = relief_index_slot(&f->hdr, id);
+	uint32_t count = f->hdr.index_records, rec = relief_index_entry(&f->hdr, id);
 	relief_file_close(f);
 	assert_int_not_equal(rec, UINT32_MAX);
 	struct relief_patch_record r;

@@ -378,11 +378,11 @@ static void test_index_follows_raster(void **state)
 			struct relief_patch_record r;
 			relief_file_record(f, id, &r);
 			if (in) {
-				assert_int_equal(relief_index_slot(h, id), inside); /* in id order, one after another */
+				assert_int_equal(relief_index_entry(h, id), inside); /* in id order, one after another */
 				inside++;
 				empty_inside += !!(r.flags & RELIEF_PATCH_EMPTY);
 			} else {
-				assert_int_equal(relief_index_slot(h, id), UINT32_MAX);
+				assert_int_equal(relief_index_entry(h, id), UINT32_MAX);
 				assert_int_equal(r.flags, RELIEF_PATCH_EMPTY);
 				assert_int_equal(r.size, 0);
 			}
