@@ -45,10 +45,15 @@ struct packer {
 	struct relief_original orig;
 	struct relief_finest finest; /* what block errors are measured against */
 
-	/* per patch results */
+	/* The file's index layout (relief_index_windows()): the per-patch results below have
+	 * one element per index entry, the patches whose footprint starts inside the raster;
+	 * every other patch is EMPTY by construction and costs nothing. */
+	struct relief_header index;
+
+	/* per entry results */
 	struct relief_patch_record *rec;
 	uint8_t **stream;
-	/* per patch with data (NULL for EMPTY ones): measured block errors and the blocks'
+	/* per entry with data (NULL for EMPTY ones): measured block errors and the blocks'
 	 * height ranges, encoded when the file is assembled */
 	double **eps, **ranges;
 	uint8_t **mask; /* coded masks of MASKED patches */
@@ -203,24 +208,31 @@ static void pack_windows(const struct relief_layout *lay, uint32_t width, uint32
 	}
 }
 
-static int encode_patch(void *ctx, size_t id)
+uint64_t relief_pack_quantised_samples(const struct relief_layout *lay, uint32_t width, uint32_t height)
+{
+	uint32_t win[RELIEF_MAX_LEVELS][2];
+	pack_windows(lay, width, height, win);
+	uint64_t n = 0;
+	for (uint32_t l = 0; l < lay->levels; l++)
+		n += (uint64_t)(win[l][0] + 2) * (win[l][1] + 2);
+	return n;
+}
+
+/* Encodes the patch of index entry e (its footprint starts inside the raster, so inside
+ * the level's quantised window too). */
+static int encode_patch(void *ctx, size_t e)
 {
 	struct packer *p = ctx;
 	const struct relief_patch_geom *geom = &p->lay.geom;
 	const uint32_t P = geom->P, E = geom->E;
 	uint32_t l, px, py;
-	relief_patch_coords(&p->lay, (uint32_t)id, &l, &px, &py);
-	struct relief_patch_record *r = &p->rec[id];
+	relief_patch_coords(&p->lay, relief_index_patch(&p->index, (uint32_t)e), &l, &px, &py);
+	struct relief_patch_record *r = &p->rec[e];
 	memset(r, 0, sizeof(*r));
 	int ret = 0;
 	int32_t *block = NULL;
 	double *heights = NULL;
 	int8_t *labels = NULL;
-	const uint64_t step = 1ull << (p->lay.levels - 1 - l);
-	if ((uint64_t)px * (P - 1) * step >= p->dem->width || (uint64_t)py * (P - 1) * step >= p->dem->height) {
-		r->flags = RELIEF_PATCH_EMPTY; /* beyond the raster, and beyond the level's window */
-		goto out;
-	}
 	/* block, parent block, residuals (the root codes all E*E values as residuals) */
 	block = malloc(sizeof(int32_t) * E * E * 3);
 	heights = malloc(sizeof(double) * P * P);
@@ -249,15 +261,15 @@ static int encode_patch(void *ctx, size_t id)
 	r->height_min = float_down(hmin);
 	r->height_max = relief_float_up(hmax);
 	r->error = relief_float_up(err);
-	p->eps[id] = calloc(relief_block_errors_per_patch(P), sizeof(double));
-	p->ranges[id] = calloc(relief_block_ranges_per_patch(P), sizeof(double));
-	if (!p->eps[id] || !p->ranges[id]) {
+	p->eps[e] = calloc(relief_block_errors_per_patch(P), sizeof(double));
+	p->ranges[e] = calloc(relief_block_ranges_per_patch(P), sizeof(double));
+	if (!p->eps[e] || !p->ranges[e]) {
 		ret = -ENOMEM;
 		goto out;
 	}
-	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest, p->eps[id])) < 0)
+	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest, p->eps[e])) < 0)
 		goto out;
-	relief_block_heights(&p->lay, heights, p->ranges[id]);
+	relief_block_heights(&p->lay, heights, p->ranges[e]);
 
 	/* Validity mask at this level's samples. */
 	uint8_t *mask = malloc((size_t)P * P);
@@ -273,7 +285,7 @@ static int encode_patch(void *ctx, size_t id)
 		}
 	if (partial) {
 		r->flags |= RELIEF_PATCH_MASKED;
-		ret = relief_mask_encode(P, mask, &p->mask[id], &p->mask_size[id]);
+		ret = relief_mask_encode(P, mask, &p->mask[e], &p->mask_size[e]);
 	}
 	free(mask);
 	if (ret < 0)
@@ -290,14 +302,14 @@ static int encode_patch(void *ctx, size_t id)
 	size_t size;
 	struct relief_window win;
 	relief_patch_window(&p->lay, p->dem->width, p->dem->height, l, px, py, &win);
-	if ((ret = relief_patch_encode(geom, l == 0, &win, labels, residuals, &p->stream[id], &size)) < 0)
+	if ((ret = relief_patch_encode(geom, l == 0, &win, labels, residuals, &p->stream[e], &size)) < 0)
 		goto out;
 	if (size > UINT32_MAX) {
 		ret = -EOVERFLOW;
 		goto out;
 	}
 	r->size = (uint32_t)size;
-	r->crc = relief_crc32c(0, p->stream[id], size);
+	r->crc = relief_crc32c(0, p->stream[e], size);
 out:
 	free(block);
 	free(heights);
@@ -306,7 +318,7 @@ out:
 		pthread_mutex_lock(&p->lock);
 		p->done++;
 		p->bytes_done += r->size;
-		p->opts->progress(p->opts->progress_data, p->done, p->lay.patch_count, p->bytes_done);
+		p->opts->progress(p->opts->progress_data, p->done, p->index.index_records, p->bytes_done);
 		pthread_mutex_unlock(&p->lock);
 	}
 	return ret;
@@ -320,13 +332,13 @@ static uint64_t align8(uint64_t v)
 static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct relief_pack_stats *st)
 {
 	const struct relief_dem *dem = p->dem;
-	const uint32_t n = p->lay.patch_count, P = p->lay.geom.P;
+	const uint32_t n = p->index.index_records, P = p->lay.geom.P;
 	const size_t be_per = relief_block_bytes_per_patch(RELIEF_FORMAT_VERSION, P);
 	const size_t ne = relief_block_errors_per_patch(P), nr = relief_block_ranges_per_patch(P);
 	struct relief_header h = {
 		.version = RELIEF_FORMAT_VERSION, .patch_size = P, .levels = p->lay.levels, .ratio = p->lay.ratio,
 		.block_cells = RELIEF_BLOCK_CELLS, .width = dem->width, .height = dem->height, .size = p->lay.size,
-		.source_units = dem->source_units, .patch_count = n, .tolerance = p->lay.tolerance,
+		.source_units = dem->source_units, .patch_count = p->lay.patch_count, .tolerance = p->lay.tolerance,
 		.origin_x = dem->origin_x, .origin_y = dem->origin_y, .spacing_x = dem->spacing_x,
 		.spacing_y = dem->spacing_y,
 	};
@@ -341,23 +353,26 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	h.height_min = hmin;
 	h.height_max = hmax;
 	uint64_t data_size = 0;
-	for (uint32_t id = 0; id < n; id++) {
-		if (p->rec[id].flags & RELIEF_PATCH_MASKED) {
-			if (h.masks_size + p->mask_size[id] > UINT32_MAX)
+	for (uint32_t e = 0; e < n; e++) {
+		if (p->rec[e].flags & RELIEF_PATCH_MASKED) {
+			if (h.masks_size + p->mask_size[e] > UINT32_MAX)
 				return -EOVERFLOW;
-			p->rec[id].mask_offset = (uint32_t)h.masks_size;
-			p->rec[id].mask_size = (uint32_t)p->mask_size[id];
-			h.masks_size += p->mask_size[id];
+			p->rec[e].mask_offset = (uint32_t)h.masks_size;
+			p->rec[e].mask_size = (uint32_t)p->mask_size[e];
+			h.masks_size += p->mask_size[e];
 			h.mask_count++;
 		}
-		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY)) {
-			p->rec[id].offset = data_size;
-			data_size += p->rec[id].size;
+		if (!(p->rec[e].flags & RELIEF_PATCH_EMPTY)) {
+			p->rec[e].offset = data_size;
+			data_size += p->rec[e].size;
 		}
-		st->empty_patches += !!(p->rec[id].flags & RELIEF_PATCH_EMPTY);
+		st->empty_patches += !!(p->rec[e].flags & RELIEF_PATCH_EMPTY);
 	}
 	h.block_patches = n - st->empty_patches; /* block records for patches with data only */
+	st->empty_patches += p->lay.patch_count - n; /* those without an entry */
 	relief_index_windows(&h);
+	if (h.index_records != n)
+		return -EINVAL; /* the windows follow from the header alone, as at the start */
 	st->masked_patches = h.mask_count;
 	st->stream_bytes = data_size;
 	size_t crs_len = dem->crs_wkt ? strlen(dem->crs_wkt) : 0;
@@ -373,37 +388,29 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	uint8_t *img = calloc(1, h.file_size);
 	if (!img)
 		return -ENOMEM;
-	/* Block records follow index order (level by level, row by row within the window),
-	 * which is id order: a window's rows are the level's first rows. */
+	/* Records, block records, masks and streams in entry order (level by level, row by row
+	 * within the window), which is id order: a window's rows are the level's first rows. */
 	uint64_t slot = 0;
-	for (uint32_t id = 0; id < n; id++) {
-		const struct relief_patch_record *r = &p->rec[id];
-		uint32_t rec = relief_index_entry(&h, id);
-		if (rec == UINT32_MAX) {
-			if (!(r->flags & RELIEF_PATCH_EMPTY) || r->size || r->height_min || r->height_max || r->error) {
-				free(img);
-				return -EINVAL; /* encode_patch() marks every patch outside the windows EMPTY */
-			}
-			continue;
-		}
-		relief_record_write(r, img + h.index_offset + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE);
+	for (uint32_t e = 0; e < n; e++) {
+		const struct relief_patch_record *r = &p->rec[e];
+		relief_record_write(r, img + h.index_offset + (uint64_t)e * RELIEF_INDEX_RECORD_SIZE);
 		if (!(r->flags & RELIEF_PATCH_EMPTY)) {
 			uint8_t *be = img + h.block_errors_offset + slot++ * be_per;
 			for (size_t i = 0; i < ne; i++)
-				be[i] = relief_block_error_encode(p->eps[id][i], p->lay.tolerance / 64.0);
-			const double *rg = p->ranges[id];
+				be[i] = relief_block_error_encode(p->eps[e][i], p->lay.tolerance / 64.0);
+			const double *rg = p->ranges[e];
 			for (size_t i = 0; i < nr; i += 2)
 				be[ne + i / 2] = relief_block_range_encode(rg[i], r->height_min, r->height_max, false) |
 				                 relief_block_range_encode(rg[i + 1], r->height_min, r->height_max, true) << 4;
 		}
-		if (p->rec[id].flags & RELIEF_PATCH_MASKED)
-			memcpy(img + h.masks_offset + p->rec[id].mask_offset, p->mask[id], p->mask_size[id]);
-		if (!(p->rec[id].flags & RELIEF_PATCH_EMPTY))
-			memcpy(img + h.data_offset + p->rec[id].offset, p->stream[id], p->rec[id].size);
+		if (p->rec[e].flags & RELIEF_PATCH_MASKED)
+			memcpy(img + h.masks_offset + p->rec[e].mask_offset, p->mask[e], p->mask_size[e]);
+		if (!(p->rec[e].flags & RELIEF_PATCH_EMPTY))
+			memcpy(img + h.data_offset + p->rec[e].offset, p->stream[e], p->rec[e].size);
 	}
 	if (crs_len)
 		memcpy(img + h.crs_offset, dem->crs_wkt, crs_len);
-	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)h.index_records * RELIEF_INDEX_RECORD_SIZE);
+	h.index_crc = relief_crc32c(0, img + h.index_offset, (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
 	h.block_errors_crc = relief_crc32c(0, img + h.block_errors_offset, (uint64_t)h.block_patches * be_per);
 	h.masks_crc = relief_crc32c(0, img + h.masks_offset, h.masks_size);
 	h.crs_crc = relief_crc32c(0, img + h.crs_offset, crs_len);
@@ -463,7 +470,10 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		ret = -ERANGE;
 		goto out;
 	}
-	const uint32_t n = p->lay.patch_count;
+	p->index = (struct relief_header){ .version = RELIEF_FORMAT_VERSION, .patch_size = opts->patch,
+	                                   .levels = p->lay.levels, .width = dem->width, .height = dem->height };
+	relief_index_windows(&p->index);
+	const uint32_t n = p->index.index_records;
 	p->orig = (struct relief_original){ dem->heights, dem->valid, dem->width, dem->height };
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
@@ -497,7 +507,7 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 	if ((ret = relief_parallel_for(n, opts->threads, encode_patch, p)) < 0)
 		goto out;
 	st.levels = p->lay.levels;
-	st.patches = n;
+	st.patches = p->lay.patch_count;
 	memcpy(st.max_error, p->level_err, sizeof(st.max_error));
 	if ((ret = assemble(p, out, out_size, &st)) < 0)
 		goto out;
@@ -506,15 +516,15 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 out:
 	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
 		relief_qgrid_finish(&p->q[l]);
-	for (uint32_t id = 0; id < p->lay.patch_count; id++) {
+	for (uint32_t e = 0; e < p->index.index_records; e++) {
 		if (p->stream)
-			free(p->stream[id]);
+			free(p->stream[e]);
 		if (p->mask)
-			free(p->mask[id]);
+			free(p->mask[e]);
 		if (p->eps)
-			free(p->eps[id]);
+			free(p->eps[e]);
 		if (p->ranges)
-			free(p->ranges[id]);
+			free(p->ranges[e]);
 	}
 	free(p->mask);
 	free(p->mask_size);

@@ -35,6 +35,10 @@ struct relief_pack_stats {
  * tolerance (|h| / (2 delta_L) must stay below 2^24), -ENOMEM. */
 int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_options *opts,
                        uint8_t **out, size_t *out_size, struct relief_pack_stats *stats);
+/* Samples the packer quantises for a width x height raster in layout `lay`: every level's
+ * window around the data, rings included (relief_pack_stats.quantised_samples). Each
+ * costs 4 bytes while packing. */
+uint64_t relief_pack_quantised_samples(const struct relief_layout *lay, uint32_t width, uint32_t height);
 /* Writes atomically: a temporary file in the same folder, fsync, rename. An existing file
  * at `path` stays intact if anything fails. */
 int relief_pack_write(const char *path, const uint8_t *data, size_t size);

@@ -53,12 +53,12 @@ static inline double dmax(double a, double b) { return a > b ? a : b; }
 /* The largest distance between the block at level d (triangulated on every s-th patch
  * sample from its north-west sample b, row stride P, each patch cell `step` finest cells
  * wide) and the finest surface, over the block's live finest samples and cell centres
- * (`live`, (n + 1)^2, see below; none beyond column iw or row jh). Coarse cell by coarse
+ * (`live`, rows of ls bytes, see below; none beyond column iw or row jh). Coarse cell by coarse
  * cell, so that its corners are read once; each finest sample belongs to the coarse cell
  * to its south-east (the last cell takes the block's east and south edges), each finest
  * cell centre to the one holding it. */
 static double block_level_error(const double *b, uint32_t P, uint32_t s, uint32_t step, const uint8_t *live,
-                                uint32_t n, uint32_t iw, uint32_t jh, const struct relief_finest *fin, uint64_t X0,
+                                size_t ls, uint32_t iw, uint32_t jh, const struct relief_finest *fin, uint64_t X0,
                                 uint64_t Y0)
 {
 	const uint32_t C = s * step, cells = RELIEF_BLOCK_CELLS / s;
@@ -75,7 +75,7 @@ static double block_level_error(const double *b, uint32_t P, uint32_t s, uint32_
 				const double v = (double)j / C, vc = ((double)j + 0.5) / C;
 				for (uint32_t i = 0; i <= in && ci * C + i <= iw; i++) {
 					const uint32_t I = ci * C + i;
-					const uint8_t lv = live[(size_t)J * (n + 1) + I];
+					const uint8_t lv = live[(size_t)J * ls + I];
 					if (!lv)
 						continue;
 					const int32_t *q = fin->grid->q + relief_qgrid_index(fin->grid, (int)(X0 + I), (int)(Y0 + J));
@@ -103,9 +103,13 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 {
 	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS, step = 1u << (lay->levels - 1 - l);
 	const uint32_t n = B * step; /* finest cells per block side */
-	/* live[j][i] for the block's (n + 1)^2 finest samples: bit 0 the sample is a corner of a
-	 * cell with a valid corner, bit 1 cell (i, j) has a valid corner */
-	uint8_t *live = malloc((size_t)(n + 1) * (n + 1));
+	/* live[j][i] for the block's finest samples within the raster (j, i at most the
+	 * raster's extent: a coarse block over a narrow raster is mostly beyond it; rows of ls
+	 * bytes): bit 0 the sample is a corner of a cell with a valid corner, bit 1 cell (i, j)
+	 * has a valid corner */
+	const size_t ls = (size_t)(n < fin->orig->w ? n : fin->orig->w) + 1;
+	const size_t rows = (size_t)(n < fin->orig->h ? n : fin->orig->h) + 1;
+	uint8_t *live = malloc(ls * rows);
 	if (!live)
 		return -ENOMEM;
 	for (uint32_t by = 0; by < lay->blocks; by++)
@@ -123,7 +127,7 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 			const uint32_t iw = (uint32_t)(fin->orig->w - X0 < n ? fin->orig->w - X0 : n);
 			const uint32_t jh = (uint32_t)(fin->orig->h - Y0 < n ? fin->orig->h - Y0 : n);
 			for (uint32_t j = 0; j <= jh; j++)
-				memset(live + (size_t)j * (n + 1), 0, iw + 1);
+				memset(live + (size_t)j * ls, 0, iw + 1);
 			for (uint32_t j = 0; j < jh; j++)
 				for (uint32_t i = 0; i < iw; i++) {
 					bool any = false;
@@ -131,15 +135,15 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 						any = finest_valid(fin->orig, X0 + i + (k & 1), Y0 + j + (k >> 1));
 					if (!any)
 						continue;
-					uint8_t *c = live + (size_t)j * (n + 1) + i;
+					uint8_t *c = live + (size_t)j * ls + i;
 					c[0] |= 3;
 					c[1] |= 1;
-					c[n + 1] |= 1;
-					c[n + 2] |= 1;
+					c[ls] |= 1;
+					c[ls + 1] |= 1;
 				}
 			const double *b = ph + (size_t)by * B * P + bx * B;
 			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++)
-				e[d - 1] = block_level_error(b, P, 1u << d, step, live, n, iw, jh, fin, X0, Y0);
+				e[d - 1] = block_level_error(b, P, 1u << d, step, live, ls, iw, jh, fin, X0, Y0);
 		}
 	free(live);
 	return 0;
