@@ -39,7 +39,8 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 	/* Every patch at once, coarse first (a child is accepted while its parent is on its
 	 * way): the worker decodes deeper levels while the device reconstructs shallower ones. */
 	double t = bench_now();
-	for (uint32_t id = 0; id < f->hdr.patch_count && ret >= 0; id++) {
+	for (uint32_t e = 0; e < f->hdr.index_records && ret >= 0; e++) { /* id order; the rest are EMPTY */
+		const uint32_t id = relief_index_patch(&f->hdr, e);
 		int r = relief_patch_cache_request(c, id, (float)id);
 		if (r < 0 && r != -ENOENT && r != -EIO)
 			ret = r;
@@ -212,7 +213,8 @@ int bench_decode(int argc, char **argv)
 		if ((ret = relief_decoder_init(&dec, f)) < 0)
 			goto fail;
 		t = bench_now();
-		for (uint32_t id = 0; id < f->hdr.patch_count && ret == 0; id++) {
+		for (uint32_t e = 0; e < f->hdr.index_records && ret == 0; e++) {
+			const uint32_t id = relief_index_patch(&f->hdr, e);
 			struct relief_patch_record r;
 			relief_file_record(f, id, &r);
 			if (!(r.flags & RELIEF_PATCH_EMPTY))

@@ -61,9 +61,9 @@ const char *bench_cpu_name(void)
 uint32_t bench_decoded_patches(const struct relief_file *f)
 {
 	uint32_t n = 0;
-	for (uint32_t id = 0; id < f->hdr.patch_count; id++) {
+	for (uint32_t e = 0; e < f->hdr.index_records; e++) { /* patches without an entry are EMPTY */
 		struct relief_patch_record r;
-		relief_file_record(f, id, &r);
+		relief_file_record(f, relief_index_patch(&f->hdr, e), &r);
 		n += !(r.flags & RELIEF_PATCH_EMPTY);
 	}
 	return n;

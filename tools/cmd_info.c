@@ -54,7 +54,8 @@ int cmd_info(int argc, char **argv)
 		relief_file_close(f);
 		return 1;
 	}
-	for (uint32_t id = 0; id < h->patch_count; id++) {
+	for (uint32_t e = 0; e < h->index_records; e++) { /* patches without an entry are EMPTY */
+		const uint32_t id = relief_index_patch(h, e);
 		uint32_t l, px, py;
 		relief_patch_coords(&f->layout, id, &l, &px, &py);
 		struct relief_patch_record r;
