@@ -325,6 +325,9 @@ int cmd_fly(int argc, char **argv)
 	}
 	struct relief_patch_cache_stats cs;
 	relief_patch_cache_stats(g.cache, &cs);
+	uint64_t view_bytes = 0;
+	for (uint32_t ch = 0; ch < channels; ch++)
+		view_bytes += relief_terrain_view_bytes(tv[ch]);
 	double wall_med = bench_median(s.wall_ms, frames), wall_p95 = bench_quantile(s.wall_ms, frames, 0.95);
 	double wall_max = s.wall_ms[frames - 1];
 	double upd_med = bench_median(s.update_ms, frames), upd_max = s.update_ms[frames - 1];
@@ -343,11 +346,13 @@ int cmd_fly(int argc, char **argv)
 		       "\"frames_incomplete\":%u,\"first_complete_frame\":%ld,\"first_complete_ms\":%.1f,"
 		       "\"last_incomplete_frame\":%ld,"
 		       "\"decoded\":%llu,\"evicted\":%llu,\"bad\":%llu,\"layers_used\":%u,\"layers\":%u,\"budget_mib\":%u,"
-		       "\"workers\":%u,\"morph\":%s,\"face_culled_draws\":%u",
+		       "\"workers\":%u,\"morph\":%s,\"face_culled_draws\":%u,\"pool_bytes\":%llu,\"table_bytes\":%llu,"
+		       "\"terrain_bytes\":%llu,\"view_bytes\":%llu",
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
 		       gpu_med, gpu_p95, busy_med, tri_med, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
 		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers,
-		       morph ? "true" : "false", culled_draws);
+		       morph ? "true" : "false", culled_draws, (unsigned long long)cs.bytes, (unsigned long long)cs.table_bytes,
+		       (unsigned long long)relief_terrain_bytes(g.terrain), (unsigned long long)view_bytes);
 		printf(",\"patches_by_level_last_frame\":[");
 		for (uint32_t l = 0; l < f->hdr.levels; l++)
 			printf("%s%u", l ? "," : "", s.last_levels[l]);
@@ -377,6 +382,9 @@ int cmd_fly(int argc, char **argv)
 		printf("  cache              %llu patches decoded, %llu evicted, %llu bad; %u of %u layers used (%u MiB budget, "
 		       "%u worker(s))\n", (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
 		       (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
+		printf("  GPU buffers        pools %.1f MiB (the budget), tables %.1f KiB, terrain %.1f KiB, %u view(s) "
+		       "%.1f KiB (per-patch ones sized by %u index entries)\n", cs.bytes / 1048576.0, cs.table_bytes / 1024.0,
+		       relief_terrain_bytes(g.terrain) / 1024.0, channels, view_bytes / 1024.0, f->hdr.index_records);
 		printf("  last frame         patches drawn per level 0..%u:", f->hdr.levels - 1);
 		for (uint32_t l = 0; l < f->hdr.levels; l++)
 			printf(" %u", s.last_levels[l]);

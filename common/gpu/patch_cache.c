@@ -647,6 +647,7 @@ void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_
 	s->bytes = c->pool_bytes;
 	s->bytes_per_layer = c->pool_bytes / c->pool.layers;
 	s->staging_bytes = c->staging.size + c->flags.size;
+	s->table_bytes = c->layer_table.size + c->use_table.size + c->use_dist.size;
 	pthread_mutex_t *lock = (pthread_mutex_t *)&c->lock; /* the stats do not change c */
 	pthread_mutex_lock(lock);
 	s->waiting = c->n_ready + c->n_pending;

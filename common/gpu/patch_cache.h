@@ -71,6 +71,7 @@ struct relief_patch_cache_stats {
 	uint64_t bytes;           /* GPU memory of the pools */
 	uint64_t bytes_per_layer; /* bytes / layers */
 	uint64_t staging_bytes;   /* host-visible staging */
+	uint64_t table_bytes;     /* the per-patch tables (16 bytes per index entry), outside the budget */
 	uint64_t decoded, evicted, bad, batches;
 	uint64_t gpu_ns;          /* summed GPU time of the decode batches (timestamps) */
 	uint64_t gpu_decode_ns;   /* of which heights: block error copies and the decode pass */
