@@ -22,8 +22,8 @@
 // patches of levels 1 .. L - 6 until a sweep forces nothing more. Forcing only adds
 // splits, so the result is the least fixed point whatever order the invocations run in,
 // the set the CPU twin reaches. One workgroup, so that a barrier ends each sweep (levels
-// 1 .. L - 6 hold 4, 20, 84, 340, 1,364 patches for 7 .. 11 levels); a sweep that forces
-// nothing ends it: one sweep when nothing is forced, two without a cascade. Patches
+// 1 .. L - 6 have at most 4, 20, 84, 340, 1,364 entries for 7 .. 11 levels); a sweep that
+// forces nothing ends it: one sweep when nothing is forced, two without a cascade. Patches
 // without an entry (EMPTY, outside their level's window) neither want to split nor are
 // forced: nothing is drawn there.
 layout(local_size_x = 256) in;
