@@ -70,13 +70,17 @@ struct level_job {
 	int32_t *blocks;
 };
 
+/* Patch i of the level's index window (row-major, cols_l a row; relief_index_windows()). */
 static int decode_one(void *ctx, size_t i)
 {
 	struct level_job *j = ctx;
 	const struct relief_layout *lay = &j->f->layout;
+	const struct relief_header *h = &j->f->hdr;
 	const size_t EE = (size_t)lay->geom.E * lay->geom.E;
-	uint32_t side = 1u << j->level, px = (uint32_t)i % side, py = (uint32_t)i / side;
-	const int32_t *parent = j->level ? j->parents + ((size_t)(py / 2) * (side / 2) + px / 2) * EE : NULL;
+	uint32_t cols = h->index_cols[j->level], px = (uint32_t)i % cols, py = (uint32_t)i / cols;
+	/* A patch's parent lies in its level's window whenever the patch lies in its own. */
+	const int32_t *parent =
+		j->level ? j->parents + ((size_t)(py / 2) * h->index_cols[j->level - 1] + px / 2) * EE : NULL;
 	uint32_t id = relief_patch_id(j->level, px, py);
 	struct relief_patch_record r;
 	relief_file_record(j->f, id, &r);
@@ -100,7 +104,7 @@ int relief_decode_level_blocks(const struct relief_file *f, uint32_t level, unsi
 	const size_t EE = (size_t)lay->geom.E * lay->geom.E;
 	int32_t *prev = NULL;
 	for (uint32_t l = 0; l <= level; l++) {
-		size_t n = (size_t)1 << (2 * l);
+		size_t n = (size_t)f->hdr.index_cols[l] * f->hdr.index_rows[l];
 		int32_t *cur = malloc(sizeof(int32_t) * EE * n);
 		if (!cur) {
 			free(prev);
@@ -133,7 +137,7 @@ int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned th
 	if (ret < 0)
 		return ret;
 	const struct relief_layout *lay = &f->layout;
-	const uint32_t P = lay->geom.P, E = lay->geom.E, side = 1u << level;
+	const uint32_t P = lay->geom.P, E = lay->geom.E, side = 1u << level, cols = f->hdr.index_cols[level];
 	const double q2 = 2.0 * lay->delta[level];
 	uint32_t w, h;
 	relief_level_extent(&f->hdr, level, &w, &h);
@@ -143,11 +147,12 @@ int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned th
 		return -ENOMEM;
 	}
 	/* Each sample is taken from the patch that owns it: the one whose interior starts at or
-	 * before it (shared borders are equal in both patches; the tests check that). */
-	for (uint32_t py = 0; py < side; py++)
-		for (uint32_t px = 0; px < side; px++) {
+	 * before it (shared borders are equal in both patches; the tests check that). Every
+	 * sample of the raster lies in a patch of the level's index window. */
+	for (uint32_t py = 0; py < f->hdr.index_rows[level]; py++)
+		for (uint32_t px = 0; px < cols; px++) {
 			uint32_t id = relief_patch_id(level, px, py);
-			const int32_t *b = blocks + ((size_t)py * side + px) * E * E;
+			const int32_t *b = blocks + ((size_t)py * cols + px) * E * E;
 			if ((ret = relief_file_mask(f, id, pmask)) < 0) {
 				free(pmask);
 				free(blocks);

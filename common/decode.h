@@ -25,10 +25,12 @@ int relief_decoder_symbols(struct relief_decoder *d, uint32_t id);
 /* Full decode of patch id into `block` (E x E) from its parent's block (NULL for the root). */
 int relief_decoder_patch(struct relief_decoder *d, uint32_t id, const int32_t *parent, int32_t *block);
 
-/* Decodes levels 0..level; blocks_out receives level `level`'s blocks (patches of that
- * level in id order, E*E values each; free() it). threads: 0 = every core. Empty patches
- * are not decoded (the file guarantees that their descendants are empty too): their
- * blocks are zero, and none of their samples is valid. */
+/* Decodes levels 0..level; blocks_out receives level `level`'s blocks, E*E values each,
+ * for the patches with an index entry, in entry order (patch id's block is number
+ * relief_index_entry(id) - index_first[level]; free() it), so that a long, narrow raster's
+ * levels cost what its data does. threads: 0 = every core. Empty patches are not decoded
+ * (the file guarantees that their descendants are empty too): their blocks are zero, and
+ * none of their samples is valid. */
 int relief_decode_level_blocks(const struct relief_file *f, uint32_t level, unsigned threads, int32_t **blocks_out);
 
 /* Assembles level `level` as heights in metres over the raster's extent at that level

@@ -148,6 +148,11 @@ check pack-long-strip 0 "$relief" pack "$tmp/strip262k.f32" "$tmp/strip.relief" 
 	--raw-type float32 --spacing 1 --patch 65
 check info-long-strip 0 "$relief" info "$tmp/strip.relief"
 expect_text info-long-strip-entries "8191 index records"
+# and unpacks (the reference decoder keeps the patches with an index entry only: the
+# finest level's 16,777,216 patch blocks would take 300 GB)
+check unpack-long-strip 0 "$relief" unpack "$tmp/strip.relief" "$tmp/strip-out.f32" --raw
+[ "$(stat -c %s "$tmp/strip-out.f32")" -eq 2097160 ] || { echo "FAIL long strip unpacked size"; fails=$((fails + 1)); }
+cmp -s "$tmp/strip-out.f32" "$tmp/strip262k.f32" || { echo "FAIL long strip of zeros unpacked"; fails=$((fails + 1)); }
 head -c 8388608 /dev/zero >"$tmp/strip.f32"
 # A raster whose packing cannot fit in the memory this process may use is refused at once,
 # naming it: a 1048576 x 2 strip's levels at 129-sample patches quantise 278,909,516 samples

@@ -99,8 +99,8 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	for (uint32_t l = 0; l < lay->levels; l++) {
 		int32_t *blocks;
 		assert_int_equal(relief_decode_level_blocks(f, l, 1, &blocks), 0);
-		for (uint32_t i = 0; i < (1u << (2 * l)); i++) {
-			uint32_t id = relief_level_first_id(l) + i;
+		for (uint32_t i = 0; i < f->hdr.index_cols[l] * f->hdr.index_rows[l]; i++) { /* entry order */
+			uint32_t id = relief_index_patch(&f->hdr, f->hdr.index_first[l] + i);
 			enum relief_patch_state st = relief_patch_cache_state(c, id);
 			if (st == RELIEF_PATCH_NONE)
 				continue;
@@ -255,7 +255,8 @@ static void assert_patch_exact(struct relief_patch_cache *c, const struct relief
 	int layer = relief_patch_cache_layer(c, id);
 	assert_true(layer >= 0);
 	assert_int_equal(relief_patch_cache_read_layer(c, (uint32_t)layer, gpu, NULL, NULL), 0);
-	assert_memory_equal(gpu, blocks + (id - relief_level_first_id(l)) * EE, sizeof(int32_t) * EE);
+	assert_memory_equal(gpu, blocks + (relief_index_entry(&f->hdr, id) - f->hdr.index_first[l]) * EE,
+	                    sizeof(int32_t) * EE);
 	free(blocks);
 	free(gpu);
 }
