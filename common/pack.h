@@ -15,7 +15,8 @@ struct relief_pack_options {
 	uint32_t ratio;     /* 2 or 3 */
 	double tolerance;   /* delta_L, metres */
 	unsigned threads;   /* 0 = every core */
-	/* Called (from any worker thread, serialised) after each patch. */
+	/* Called (from any worker thread, serialised) after each patch coded: `total` counts
+	 * the patches with an index entry (over the raster); the others are EMPTY by position. */
 	void (*progress)(void *data, uint32_t done, uint32_t total, uint64_t bytes);
 	void *progress_data;
 	/* tests: quantise every level whole instead of its window around the data (the file
