@@ -132,7 +132,7 @@ uint32_t view_levels(const struct scene *s, struct relief_terrain_view *tv, uint
                      uint32_t *counts)
 {
 	uint32_t levels = 0;
-	*n = view_drawn(tv, ids, s->f->hdr.patch_count);
+	*n = view_drawn(tv, ids, s->f->hdr.index_records); /* drawn patches have entries */
 	for (uint32_t i = 0; i < *n; i++) {
 		uint32_t l, px, py;
 		assert_true(relief_patch_coords(&s->f->layout, ids[i], &l, &px, &py));

@@ -284,6 +284,54 @@ static void test_deep_tree_matches_cpu(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* A 262 km strip, two samples wide (262145 x 2 at P = 65): 13 levels, 22,369,621 patches
+ * of which 8,191 have an index entry, the only ones with elements in the per-patch
+ * buffers. From two views along it (low, looking along the strip both ways) the GPU's
+ * selection equals the CPU reference's, the finest levels are drawn, and the terrain's and
+ * view's buffers stay under a byte per patch of the tree (they took 36 bytes a patch when
+ * every patch had elements). Negative control, run when the test was written: a selection
+ * that loses the east child's entry below level 9 draws 34 patches where the CPU draws 35. */
+static void test_strip_tree_matches_cpu(void **state)
+{
+	enum { W = 262145, H = 2 };
+	struct relief_dem dem = { .width = W, .height = H, .spacing_x = 1, .spacing_y = 1, .origin_y = 1.0 * (H - 1) };
+	dem.heights = malloc(sizeof(float) * W * H);
+	dem.valid = malloc((size_t)W * H);
+	assert_non_null(dem.heights);
+	assert_non_null(dem.valid);
+	memset(dem.valid, 1, (size_t)W * H);
+	for (uint32_t y = 0; y < H; y++)
+		for (uint32_t x = 0; x < W; x++)
+			dem.heights[(size_t)y * W + x] = (float)(300 + 200 * sin(x / 700.0) + 30 * sin(x / 37.0 + y));
+	struct scene s;
+	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
+	relief_dem_finish(&dem);
+	assert_int_equal(s.f->hdr.levels, 13);
+	assert_int_equal(s.f->hdr.index_records, 8191);
+	uint64_t bytes = relief_terrain_bytes(s.terrain) + relief_terrain_view_bytes(s.view);
+	print_message("%u patches, %u index entries: terrain and view buffers %llu bytes\n", s.f->hdr.patch_count,
+	              s.f->hdr.index_records, (unsigned long long)bytes);
+	assert_true(bytes < s.f->hdr.patch_count);
+	const double along[] = { 100000, 200000 };
+	for (size_t i = 0; i < sizeof(along) / sizeof(along[0]); i++) {
+		struct relief_view v = {
+			.eye = { along[i], -300, 420 }, .target = { along[i] + (i % 2 ? -3000 : 3000), 1, 150 },
+			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 2.0,
+		};
+		float *depth = malloc(sizeof(float) * 320 * 180);
+		struct relief_terrain_stats st;
+		render(&s, &v, depth, &st);
+		free(depth);
+		assert_true(fresh_view_matches_cpu(&s, &v, 400 + i, NULL) > 0);
+		uint32_t n, *ids = malloc(4 * s.f->hdr.index_records), mask = drawn_levels(&s, ids, &n);
+		free(ids);
+		print_message("strip at %.0f m: %u patches, levels drawn 0x%x\n", along[i], n, mask);
+		assert_true(mask >= 1u << 11); /* the finest levels */
+	}
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 /* Forced splits that force others (trees of 11 levels or more). A 65537 x 65 corridor at
  * P = 65 (11 levels), flat at 0 m but for 61 columns of rough ground just east of the
  * border between the level-5 patches A (x = 16) and B (x = 17). Looking west from above
@@ -963,6 +1011,7 @@ int main(void)
 		cmocka_unit_test(test_hysteresis_matches_cpu),
 		cmocka_unit_test(test_deep_tree_matches_cpu),
 		cmocka_unit_test(test_forced_splits_cascade),
+		cmocka_unit_test(test_strip_tree_matches_cpu),
 		cmocka_unit_test(test_requests_look_ahead),
 		cmocka_unit_test(test_views_share_cache),
 		cmocka_unit_test(test_near_detail_takes_layers),
