@@ -382,7 +382,7 @@ int cmd_fly(int argc, char **argv)
 		printf("  cache              %llu patches decoded, %llu evicted, %llu bad; %u of %u layers used (%u MiB budget, "
 		       "%u worker(s))\n", (unsigned long long)cs.decoded, (unsigned long long)cs.evicted,
 		       (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers);
-		printf("  GPU buffers        pools %.1f MiB (the budget), tables %.1f KiB, terrain %.1f KiB, %u view(s) "
+		printf("  GPU buffers        pools %.1f MiB (within the budget), tables %.1f KiB, terrain %.1f KiB, %u view(s) "
 		       "%.1f KiB (per-patch ones sized by %u index entries)\n", cs.bytes / 1048576.0, cs.table_bytes / 1024.0,
 		       relief_terrain_bytes(g.terrain) / 1024.0, channels, view_bytes / 1024.0, f->hdr.index_records);
 		printf("  last frame         patches drawn per level 0..%u:", f->hdr.levels - 1);
