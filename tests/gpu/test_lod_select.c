@@ -233,6 +233,28 @@ static void test_hysteresis_matches_cpu(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* A W x H DEM of samples `spacing` metres apart, every one valid, heights from `height`
+ * (the deep-tree tests' corridors and strips). */
+static struct relief_dem field_dem(uint32_t W, uint32_t H, double spacing, double (*height)(uint32_t x, uint32_t y))
+{
+	struct relief_dem dem = { .width = W, .height = H, .spacing_x = spacing, .spacing_y = spacing,
+	                          .origin_y = spacing * (H - 1) };
+	dem.heights = malloc(sizeof(float) * W * H);
+	dem.valid = malloc((size_t)W * H);
+	assert_non_null(dem.heights);
+	assert_non_null(dem.valid);
+	memset(dem.valid, 1, (size_t)W * H);
+	for (uint32_t y = 0; y < H; y++)
+		for (uint32_t x = 0; x < W; x++)
+			dem.heights[(size_t)y * W + x] = (float)height(x, y);
+	return dem;
+}
+
+static double corridor_height(uint32_t x, uint32_t y)
+{
+	return 300 + 250 * sin(x / 310.0) + 40 * sin(x / 23.0) * cos(y / 9.0);
+}
+
 /* A deep tree: a 655 km x 640 m corridor, 65537 x 65 samples 10 m apart at 65-sample
  * patches, is a tree of 11 levels and 1,398,101 patches, almost all EMPTY (packed over a
  * window around the data: docs/format.md, "Known limits"). The selection visits only
@@ -244,16 +266,7 @@ static void test_hysteresis_matches_cpu(void **state)
  * 8). */
 static void test_deep_tree_matches_cpu(void **state)
 {
-	enum { W = 65537, H = 65 };
-	struct relief_dem dem = { .width = W, .height = H, .spacing_x = 10, .spacing_y = 10, .origin_y = 10.0 * (H - 1) };
-	dem.heights = malloc(sizeof(float) * W * H);
-	dem.valid = malloc((size_t)W * H);
-	assert_non_null(dem.heights);
-	assert_non_null(dem.valid);
-	memset(dem.valid, 1, (size_t)W * H);
-	for (uint32_t y = 0; y < H; y++)
-		for (uint32_t x = 0; x < W; x++)
-			dem.heights[(size_t)y * W + x] = (float)(300 + 250 * sin(x / 310.0) + 40 * sin(x / 23.0) * cos(y / 9.0));
+	struct relief_dem dem = field_dem(65537, 65, 10, corridor_height);
 	struct scene s;
 	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
 	relief_dem_finish(&dem);
@@ -291,18 +304,14 @@ static void test_deep_tree_matches_cpu(void **state)
  * view's buffers stay under a byte per patch of the tree (they took 36 bytes a patch when
  * every patch had elements). Negative control, run when the test was written: a selection
  * that loses the east child's entry below level 9 draws 34 patches where the CPU draws 35. */
+static double strip_height(uint32_t x, uint32_t y)
+{
+	return 300 + 200 * sin(x / 700.0) + 30 * sin(x / 37.0 + y);
+}
+
 static void test_strip_tree_matches_cpu(void **state)
 {
-	enum { W = 262145, H = 2 };
-	struct relief_dem dem = { .width = W, .height = H, .spacing_x = 1, .spacing_y = 1, .origin_y = 1.0 * (H - 1) };
-	dem.heights = malloc(sizeof(float) * W * H);
-	dem.valid = malloc((size_t)W * H);
-	assert_non_null(dem.heights);
-	assert_non_null(dem.valid);
-	memset(dem.valid, 1, (size_t)W * H);
-	for (uint32_t y = 0; y < H; y++)
-		for (uint32_t x = 0; x < W; x++)
-			dem.heights[(size_t)y * W + x] = (float)(300 + 200 * sin(x / 700.0) + 30 * sin(x / 37.0 + y));
+	struct relief_dem dem = field_dem(262145, 2, 1, strip_height);
 	struct scene s;
 	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
 	relief_dem_finish(&dem);
@@ -343,18 +352,15 @@ static void test_strip_tree_matches_cpu(void **state)
  * more than 4 levels apart. Negative control, run when the test was written: with one
  * sweep of the pre-pass (the pass before the fixed point), C stays whole beside level 6
  * (a jump of 5) at each view, on the GPU and the CPU alike. */
+/* Flat at 0 m but for columns 34818 .. 34878, just inside level-5 patch 17 of 65536. */
+static double cascade_height(uint32_t x, uint32_t y)
+{
+	return x < 34818 || x > 34878 ? 0.0 : 50 + 50 * sin(x * 1.7 + y * 0.9) * cos(x * 0.3 - y * 2.1);
+}
+
 static void test_forced_splits_cascade(void **state)
 {
-	enum { W = 65537, H = 65, ROUGH0 = 34818, ROUGH1 = 34878 };
-	struct relief_dem dem = { .width = W, .height = H, .spacing_x = 10, .spacing_y = 10, .origin_y = 10.0 * (H - 1) };
-	dem.heights = calloc((size_t)W * H, sizeof(float));
-	dem.valid = malloc((size_t)W * H);
-	assert_non_null(dem.heights);
-	assert_non_null(dem.valid);
-	memset(dem.valid, 1, (size_t)W * H);
-	for (uint32_t y = 0; y < H; y++)
-		for (uint32_t x = ROUGH0; x <= ROUGH1; x++)
-			dem.heights[(size_t)y * W + x] = (float)(50 + 50 * sin(x * 1.7 + y * 0.9) * cos(x * 0.3 - y * 2.1));
+	struct relief_dem dem = field_dem(65537, 65, 10, cascade_height);
 	struct scene s;
 	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
 	relief_dem_finish(&dem);
