@@ -370,14 +370,11 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 	}
 	h.block_patches = n - st->empty_patches; /* block records for patches with data only */
 	st->empty_patches += p->lay.patch_count - n; /* those without an entry */
-	relief_index_windows(&h);
-	if (h.index_records != n)
-		return -EINVAL; /* the windows follow from the header alone, as at the start */
 	st->masked_patches = h.mask_count;
 	st->stream_bytes = data_size;
 	size_t crs_len = dem->crs_wkt ? strlen(dem->crs_wkt) : 0;
 	h.index_offset = RELIEF_HEADER_SIZE;
-	h.block_errors_offset = align8(h.index_offset + (uint64_t)h.index_records * RELIEF_INDEX_RECORD_SIZE);
+	h.block_errors_offset = align8(h.index_offset + (uint64_t)n * RELIEF_INDEX_RECORD_SIZE);
 	h.masks_offset = align8(h.block_errors_offset + (uint64_t)h.block_patches * be_per);
 	h.crs_offset = align8(h.masks_offset + h.masks_size);
 	h.crs_size = (uint32_t)crs_len;
