@@ -109,7 +109,8 @@ int relief_header_parse(const uint8_t *buf, size_t size, struct relief_header *h
 /* Fills the header's index windows from its version, levels, patch size and extent. */
 void relief_index_windows(struct relief_header *h);
 /* Patch id's entry: its record number in the index, or UINT32_MAX for a patch outside its
- * level's window (EMPTY, no record). id < patch_count. Entries also number the per-patch
+ * level's window (EMPTY, no record) and for an id beyond the tree (>= patch_count: it
+ * falls below the finest level's rows). Entries also number the per-patch
  * arrays of the GPU cache and the selection, so that they follow the data too. */
 uint32_t relief_index_entry(const struct relief_header *h, uint32_t id);
 /* The patch id of entry e < index_records (the inverse). */

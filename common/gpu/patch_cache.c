@@ -239,8 +239,9 @@ static int queue_push_with_ancestors(struct relief_patch_cache *c, uint32_t id, 
 {
 	int ret = patch_queue_push(c, priority, id);
 	if (ret == 0) {
-		c->queued[ent(c, id)] = 1;
-		c->queued_prio[ent(c, id)] = priority;
+		const uint32_t e = ent(c, id);
+		c->queued[e] = 1;
+		c->queued_prio[e] = priority;
 	}
 	float ahead = priority;
 	for (uint32_t a = id; ret == 0 && a != 0;) {
@@ -320,7 +321,7 @@ uint32_t relief_patch_cache_use_dist_half(struct relief_patch_cache *c, uint64_t
 
 void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_t frame)
 {
-	uint32_t e = id < c->file->hdr.patch_count ? ent(c, id) : UINT32_MAX;
+	uint32_t e = ent(c, id); /* UINT32_MAX also beyond the tree */
 	if (e != UINT32_MAX && c->last_used[e] < frame)
 		c->last_used[e] = frame;
 }
@@ -331,8 +332,9 @@ void relief_patch_cache_touch(struct relief_patch_cache *c, uint32_t id, uint64_
  * on a discrete GPU); layer_table is what the shaders read. Only this writes either. */
 static void set_layer(struct relief_patch_cache *c, uint32_t id, int32_t layer)
 {
-	c->layer[ent(c, id)] = layer;
-	((int32_t *)c->layer_table.map)[ent(c, id)] = layer;
+	const uint32_t e = ent(c, id);
+	c->layer[e] = layer;
+	((int32_t *)c->layer_table.map)[e] = layer;
 }
 
 /* The resident patch whose layer may go: nothing depends on it (no resident child, no
@@ -628,13 +630,13 @@ int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame)
 
 enum relief_patch_state relief_patch_cache_state(const struct relief_patch_cache *c, uint32_t id)
 {
-	uint32_t e = id < c->file->hdr.patch_count ? ent(c, id) : UINT32_MAX;
+	uint32_t e = ent(c, id);
 	return e != UINT32_MAX ? (enum relief_patch_state)c->state[e] : RELIEF_PATCH_NONE;
 }
 
 int relief_patch_cache_layer(const struct relief_patch_cache *c, uint32_t id)
 {
-	uint32_t e = id < c->file->hdr.patch_count ? ent(c, id) : UINT32_MAX;
+	uint32_t e = ent(c, id);
 	return e != UINT32_MAX && c->state[e] == RELIEF_PATCH_RESIDENT ? c->layer[e] : -1;
 }
 

@@ -391,6 +391,8 @@ static void test_index_follows_raster(void **state)
 		              dem.width, dem.height, cases[c].patch, h->patch_count, h->index_records, empty_inside,
 		              (unsigned long long)h->data_offset);
 		assert_int_equal(h->index_records, inside);
+		assert_int_equal(relief_index_entry(h, h->patch_count), UINT32_MAX); /* beyond the tree */
+		assert_int_equal(relief_index_entry(h, UINT32_MAX), UINT32_MAX);
 		assert_int_equal(h->block_patches, inside - empty_inside);
 		assert_int_equal(h->patch_count - h->block_patches, st.empty_patches);
 		assert_true(inside < h->patch_count);
