@@ -78,19 +78,19 @@ uint child_entry(uint l, uvec2 p, uint k) { return entry_at(l + 1u, ivec2(2u * p
 
 bool child_missing(uint c) { return c != NO_ENTRY && info[c].skirt >= 0.0 && layer_of[c] < 0; }
 
-// Appends the children of the patch at p of level l that have entries (the first, c0 its
-// id, the row below it at c0 + row) to level l + 1's frontier.
-void push_children(uint l, uvec2 p, uint c0, uint row, bool reachable, float d)
+// Appends the children of a patch of level l that have entries (ce: their entries, ids: their
+// ids, row-major) to level l + 1's frontier.
+void push_children(uint l, uint ce[4], uint ids[4], bool reachable, float d)
 {
-	uint ids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u), m = 0u;
+	uint m = 0u;
 	for (uint k = 0u; k < 4u; k++)
-		m += child_entry(l, p, k) != NO_ENTRY ? 1u : 0u;
+		m += ce[k] != NO_ENTRY ? 1u : 0u;
 	uint n = atomicAdd(passes[l + 1u].w, m);
 	atomicMax(passes[l + 1u].x, (n + m + 63u) / 64u);
 	uint at = window[l + 1u].z + n;
 	uint mark = reachable ? 0x80000000u : 0u, dist = floatBitsToUint(d);
 	for (uint k = 0u; k < 4u; k++)
-		if (child_entry(l, p, k) != NO_ENTRY)
+		if (ce[k] != NO_ENTRY)
 			frontier[at++] = uvec2(ids[k] | mark, dist);
 }
 
@@ -127,10 +127,13 @@ void main()
 	bool reachable = (f.x & 0x80000000u) != 0u && layer_of[e] >= 0;
 	if (wish) {
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
-		uvec2 p = uvec2(px, py);
-		bool there = !child_missing(child_entry(l, p, 0u)) && !child_missing(child_entry(l, p, 1u)) &&
-		             !child_missing(child_entry(l, p, 2u)) && !child_missing(child_entry(l, p, 3u));
-		push_children(l, p, c0, row, reachable && there, d);
+		uint ids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u), ce[4];
+		bool there = true;
+		for (uint k = 0u; k < 4u; k++) {
+			ce[k] = child_entry(l, uvec2(px, py), k);
+			there = there && !child_missing(ce[k]);
+		}
+		push_children(l, ce, ids, reachable && there, d);
 		if (reachable && there)
 			return; // the children draw this area
 	}
