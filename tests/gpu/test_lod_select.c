@@ -255,6 +255,26 @@ static double corridor_height(uint32_t x, uint32_t y)
 	return 300 + 250 * sin(x / 310.0) + 40 * sin(x / 23.0) * cos(y / 9.0);
 }
 
+/* The deep-tree tests' check of one 320 x 180 view: rendered until nothing more is asked
+ * for, then a fresh view's selection equal to the CPU reference's (frame `frame`). Returns
+ * the mask of the levels drawn; ids (index_records long) and *n receive the drawn patches,
+ * *terrain (may be NULL) the pixels that show terrain. */
+static uint32_t deep_view_matches_cpu(struct scene *s, struct relief_view *v, uint64_t frame, uint32_t *ids,
+                                      uint32_t *n, uint32_t *terrain)
+{
+	float *depth = malloc(sizeof(float) * 320 * 180);
+	struct relief_terrain_stats st;
+	render(s, v, depth, &st);
+	if (terrain) {
+		*terrain = 0;
+		for (size_t k = 0; k < 320 * 180; k++)
+			*terrain += depth[k] > 0.0f;
+	}
+	free(depth);
+	assert_true(fresh_view_matches_cpu(s, v, frame, NULL) > 0);
+	return drawn_levels(s, ids, n);
+}
+
 /* A deep tree: a 655 km x 640 m corridor, 65537 x 65 samples 10 m apart at 65-sample
  * patches, is a tree of 11 levels and 1,398,101 patches, almost all EMPTY (packed over a
  * window around the data: docs/format.md, "Known limits"). The selection visits only
@@ -272,6 +292,7 @@ static void test_deep_tree_matches_cpu(void **state)
 	relief_dem_finish(&dem);
 	assert_int_equal(s.f->hdr.levels, 11);
 	assert_int_equal(s.f->hdr.patch_count, 1398101);
+	uint32_t *ids = malloc(4 * s.f->hdr.index_records); /* drawn patches have entries */
 	const double along[] = { 2000, 150000, 400000, 640000 };
 	for (size_t i = 0; i < sizeof(along) / sizeof(along[0]); i++) {
 		struct relief_view v = {
@@ -279,20 +300,12 @@ static void test_deep_tree_matches_cpu(void **state)
 			.target = { along[i] + (i % 2 ? -4000 : 4000), 320, 200 },
 			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 2.0,
 		};
-		float *depth = malloc(sizeof(float) * 320 * 180);
-		struct relief_terrain_stats st;
-		render(&s, &v, depth, &st);
-		uint32_t terrain = 0;
-		for (size_t k = 0; k < 320 * 180; k++)
-			terrain += depth[k] > 0.0f;
-		free(depth);
-		assert_true(fresh_view_matches_cpu(&s, &v, 100 + i, NULL) > 0);
-		uint32_t n, *ids = malloc(4 * s.f->hdr.patch_count), mask = drawn_levels(&s, ids, &n);
-		free(ids);
+		uint32_t n, terrain, mask = deep_view_matches_cpu(&s, &v, 100 + i, ids, &n, &terrain);
 		print_message("corridor at %.0f m: %u terrain pixels, levels drawn 0x%x\n", along[i], terrain, mask);
 		assert_true(terrain > 320 * 180 / 20);
 		assert_true(mask >= 1u << 8); /* the deep levels are drawn */
 	}
+	free(ids);
 	scene_close(&s);
 	gpu_test_assert_clean(vk);
 }
@@ -321,22 +334,18 @@ static void test_strip_tree_matches_cpu(void **state)
 	print_message("%u patches, %u index entries: terrain and view buffers %llu bytes\n", s.f->hdr.patch_count,
 	              s.f->hdr.index_records, (unsigned long long)bytes);
 	assert_true(bytes < s.f->hdr.patch_count);
+	uint32_t *ids = malloc(4 * s.f->hdr.index_records); /* drawn patches have entries */
 	const double along[] = { 100000, 200000 };
 	for (size_t i = 0; i < sizeof(along) / sizeof(along[0]); i++) {
 		struct relief_view v = {
 			.eye = { along[i], -300, 420 }, .target = { along[i] + (i % 2 ? -3000 : 3000), 1, 150 },
 			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 2.0,
 		};
-		float *depth = malloc(sizeof(float) * 320 * 180);
-		struct relief_terrain_stats st;
-		render(&s, &v, depth, &st);
-		free(depth);
-		assert_true(fresh_view_matches_cpu(&s, &v, 400 + i, NULL) > 0);
-		uint32_t n, *ids = malloc(4 * s.f->hdr.index_records), mask = drawn_levels(&s, ids, &n);
-		free(ids);
+		uint32_t n, mask = deep_view_matches_cpu(&s, &v, 400 + i, ids, &n, NULL);
 		print_message("strip at %.0f m: %u patches, levels drawn 0x%x\n", along[i], n, mask);
 		assert_true(mask >= 1u << 11); /* the finest levels */
 	}
+	free(ids);
 	scene_close(&s);
 	gpu_test_assert_clean(vk);
 }
@@ -372,7 +381,7 @@ static void test_forced_splits_cascade(void **state)
 	              s.f->hdr.index_records, (unsigned long long)bytes);
 	assert_true(bytes < 4ull * s.f->hdr.patch_count);
 	const uint32_t c_id = relief_patch_id(1, 0, 0);
-	uint32_t *ids = malloc(4 * s.f->hdr.patch_count);
+	uint32_t *ids = malloc(4 * s.f->hdr.index_records); /* drawn patches have entries */
 	const struct {
 		double x, z, tau;
 	} views[] = { { 348500, 300, 2 }, { 348500, 800, 4 }, { 349000, 150, 2 } };
@@ -381,12 +390,7 @@ static void test_forced_splits_cascade(void **state)
 			.eye = { views[i].x, 320, views[i].z }, .target = { views[i].x - 3000, 320, 0 },
 			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = views[i].tau,
 		};
-		float *depth = malloc(sizeof(float) * 320 * 180);
-		struct relief_terrain_stats st;
-		render(&s, &v, depth, &st);
-		free(depth);
-		assert_true(fresh_view_matches_cpu(&s, &v, 300 + i, NULL) > 0);
-		uint32_t n, mask = drawn_levels(&s, ids, &n), jump = max_level_jump(&s, ids, n);
+		uint32_t n, mask = deep_view_matches_cpu(&s, &v, 300 + i, ids, &n, NULL), jump = max_level_jump(&s, ids, n);
 		bool c_drawn = false;
 		for (uint32_t k = 0; k < n; k++)
 			c_drawn = c_drawn || ids[k] == c_id;
