@@ -255,6 +255,24 @@ static double corridor_height(uint32_t x, uint32_t y)
 	return 300 + 250 * sin(x / 310.0) + 40 * sin(x / 23.0) * cos(y / 9.0);
 }
 
+/* A deep-tree test's scene: field_dem() packed with 65-sample patches, a 320 x 180 view. */
+static void deep_scene_open(struct scene *s, uint32_t W, uint32_t H, double spacing,
+                            double (*height)(uint32_t x, uint32_t y))
+{
+	struct relief_dem dem = field_dem(W, H, spacing, height);
+	scene_open_dem_patch(s, vk, &dem, 65, 1.0, 320, 180, 0);
+	relief_dem_finish(&dem);
+}
+
+/* The terrain's and the view's buffer bytes, printed with the tree's patch and entry counts. */
+static uint64_t deep_buffer_bytes(const struct scene *s)
+{
+	uint64_t bytes = relief_terrain_bytes(s->terrain) + relief_terrain_view_bytes(s->view);
+	print_message("%u patches, %u index entries: terrain and view buffers %llu bytes\n", s->f->hdr.patch_count,
+	              s->f->hdr.index_records, (unsigned long long)bytes);
+	return bytes;
+}
+
 /* The deep-tree tests' check of one 320 x 180 view: rendered until nothing more is asked
  * for, then a fresh view's selection equal to the CPU reference's (frame `frame`). Returns
  * the mask of the levels drawn; ids (index_records long) and *n receive the drawn patches,
@@ -286,10 +304,8 @@ static uint32_t deep_view_matches_cpu(struct scene *s, struct relief_view *v, ui
  * 8). */
 static void test_deep_tree_matches_cpu(void **state)
 {
-	struct relief_dem dem = field_dem(65537, 65, 10, corridor_height);
 	struct scene s;
-	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
-	relief_dem_finish(&dem);
+	deep_scene_open(&s, 65537, 65, 10, corridor_height);
 	assert_int_equal(s.f->hdr.levels, 11);
 	assert_int_equal(s.f->hdr.patch_count, 1398101);
 	uint32_t *ids = malloc(4 * s.f->hdr.index_records); /* drawn patches have entries */
@@ -324,16 +340,11 @@ static double strip_height(uint32_t x, uint32_t y)
 
 static void test_strip_tree_matches_cpu(void **state)
 {
-	struct relief_dem dem = field_dem(262145, 2, 1, strip_height);
 	struct scene s;
-	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
-	relief_dem_finish(&dem);
+	deep_scene_open(&s, 262145, 2, 1, strip_height);
 	assert_int_equal(s.f->hdr.levels, 13);
 	assert_int_equal(s.f->hdr.index_records, 8191);
-	uint64_t bytes = relief_terrain_bytes(s.terrain) + relief_terrain_view_bytes(s.view);
-	print_message("%u patches, %u index entries: terrain and view buffers %llu bytes\n", s.f->hdr.patch_count,
-	              s.f->hdr.index_records, (unsigned long long)bytes);
-	assert_true(bytes < s.f->hdr.patch_count);
+	assert_true(deep_buffer_bytes(&s) < s.f->hdr.patch_count);
 	uint32_t *ids = malloc(4 * s.f->hdr.index_records); /* drawn patches have entries */
 	const double along[] = { 100000, 200000 };
 	for (size_t i = 0; i < sizeof(along) / sizeof(along[0]); i++) {
@@ -369,17 +380,12 @@ static double cascade_height(uint32_t x, uint32_t y)
 
 static void test_forced_splits_cascade(void **state)
 {
-	struct relief_dem dem = field_dem(65537, 65, 10, cascade_height);
 	struct scene s;
-	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
-	relief_dem_finish(&dem);
+	deep_scene_open(&s, 65537, 65, 10, cascade_height);
 	assert_int_equal(s.f->hdr.levels, 11);
 	/* The per-patch buffers follow the index entries, not the 1,398,101 patches of the
 	 * tree (they once took 36 bytes a patch on the GPU). */
-	uint64_t bytes = relief_terrain_bytes(s.terrain) + relief_terrain_view_bytes(s.view);
-	print_message("%u patches, %u index entries: terrain and view buffers %llu bytes\n", s.f->hdr.patch_count,
-	              s.f->hdr.index_records, (unsigned long long)bytes);
-	assert_true(bytes < 4ull * s.f->hdr.patch_count);
+	assert_true(deep_buffer_bytes(&s) < 4ull * s.f->hdr.patch_count);
 	const uint32_t c_id = relief_patch_id(1, 0, 0);
 	uint32_t *ids = malloc(4 * s.f->hdr.index_records); /* drawn patches have entries */
 	const struct {
