@@ -129,8 +129,7 @@ void relief_view_matrix(const struct relief_view *v, float out[16])
 	relief_view_matrix_from(v, v->eye, out);
 }
 
-/* v's view-projection in double precision for positions relative to `origin`. */
-static struct relief_mat4 view_projection(const struct relief_view *v, struct relief_vec3 origin)
+struct relief_mat4 relief_view_projection(const struct relief_view *v, struct relief_vec3 origin)
 {
 	struct relief_mat4 view, proj;
 	struct relief_vec3 f, r, u;
@@ -142,7 +141,7 @@ static struct relief_mat4 view_projection(const struct relief_view *v, struct re
 
 void relief_view_matrix_from(const struct relief_view *v, struct relief_vec3 origin, float out[16])
 {
-	struct relief_mat4 vp = view_projection(v, origin);
+	struct relief_mat4 vp = relief_view_projection(v, origin);
 	relief_mat4_to_float(&vp, out);
 }
 
@@ -342,13 +341,18 @@ struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int
 
 double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e)
 {
-	struct relief_mat4 vp = view_projection(v, (struct relief_vec3){ 0, 0, 0 });
+	struct relief_mat4 vp = relief_view_projection(v, (struct relief_vec3){ 0, 0, 0 });
+	return relief_segment_px(&vp, v->width, v->height, p, e);
+}
+
+double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t height, struct relief_vec3 p, double e)
+{
 	double w0, w1;
-	struct relief_vec3 a = relief_mat4_transform(&vp, p, &w0);
-	struct relief_vec3 b = relief_mat4_transform(&vp, (struct relief_vec3){ p.x, p.y, p.z + e }, &w1);
+	struct relief_vec3 a = relief_mat4_transform(vp, p, &w0);
+	struct relief_vec3 b = relief_mat4_transform(vp, (struct relief_vec3){ p.x, p.y, p.z + e }, &w1);
 	if (w0 <= 0 || w1 <= 0)
 		return INFINITY;
-	double dx = (a.x / w0 - b.x / w1) * 0.5 * v->width, dy = (a.y / w0 - b.y / w1) * 0.5 * v->height;
+	double dx = (a.x / w0 - b.x / w1) * 0.5 * width, dy = (a.y / w0 - b.y / w1) * 0.5 * height;
 	return sqrt(dx * dx + dy * dy);
 }
 

@@ -80,6 +80,11 @@ double relief_view_depth_distance(const struct relief_view *v, double d);
 struct relief_vec3 relief_view_unproject(const struct relief_view *v, int x, int y, double d);
 /* Length in pixels of the vertical segment from p to p + e z (inf if it crosses the eye plane). */
 double relief_view_segment_px(const struct relief_view *v, struct relief_vec3 p, double e);
+/* v's view-projection in double precision for positions relative to `origin` (world). */
+struct relief_mat4 relief_view_projection(const struct relief_view *v, struct relief_vec3 origin);
+/* relief_view_segment_px() with the view-projection (for p relative to its origin) and the
+ * viewport given: for measuring many points of one view. */
+double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t height, struct relief_vec3 p, double e);
 /* Signed vertical distance from p to a level's decoded surface (heights w x h in metres,
  * samples at the file's spacing times `step`), the nearer of the two cell diagonals; 0
  * outside the raster or over no-data. `mid`, if not NULL, receives the signed distance to

@@ -27,6 +27,15 @@
  * be (another level of detail, or no terrain on the ray), which keep their raw value;
  * recheck_diff_px and recheck_rms_diff_px are the largest and the RMS change a recheck
  * made. --recheck-all rechecks every pixel, a check of the recheck itself (tests/cli).
+ * Triangle by triangle (December 2026, where the device has the mesh capture,
+ * relief_terrain_view_mesh()): each frame of the first run is drawn once more with its
+ * triangles captured, and relief_mesh_error() measures every one of them in the frustum
+ * against the finest surface everywhere on it, hidden ones included: max_err_mesh_px
+ * (nearer diagonal, as the pixels), and split by kind, max_err_mesh_transition_px (the
+ * tessellator's transition triangles, which no block error bounds) and
+ * max_err_mesh_regular_worse_px (the triangles of a block level's own triangulation above
+ * full resolution, against the worse diagonal: what the block errors bound);
+ * transition_triangles per frame. Absent where not measured.
  * Popping: what the change of level of detail alone does between consecutive frames (each
  * key pose and the frame after it, 1/60 s later at 250 m/s): the second frame's camera
  * draws once with its own LOD and once with the first frame's LOD (frozen, see
@@ -93,7 +102,14 @@ struct result {
 	uint64_t pixels, excluded; /* pixel-frames measured, and left out as reference noise */
 	uint64_t over_tau, unresolved; /* pixel-frames rechecked, and those a recheck could not resolve */
 	uint32_t face_culled;          /* timed frames of the first run drawn with back faces culled */
+	/* Triangle by triangle (relief_mesh_error(), over the analysed run's frames): the
+	 * largest error, that of transition triangles, that of regular triangles above full
+	 * resolution against the worse diagonal; transition triangles per frame; -1 where not
+	 * measured (no capture on this device, or a frame drew more than MESH_CAP triangles) */
+	double mesh_max, mesh_transition, mesh_regular_worse, transitions;
 };
+/* Triangles one frame's mesh capture holds (48 bytes each on the device, 72 on the CPU). */
+#define MESH_CAP (1u << 22)
 
 /* The full-resolution render's own error at a pixel is 0.01 px or less at 99.9 % of pixels;
  * beyond this it is rasterisation noise (see the top of the file). */
@@ -105,6 +121,8 @@ struct run {
 	const float *finest;
 	uint32_t fw, fh, frames;
 	struct relief_view *views;
+	/* the mesh capture's triangles (MESH_CAP), or NULL when the device has no capture */
+	struct relief_mesh_vertex *mesh;
 	/* three times the frame's width and height, for rechecks; recheck_all: every pixel */
 	struct relief_vk_target fine;
 	bool recheck_all;
@@ -220,6 +238,35 @@ static int recheck(struct run *r, const struct config *c, struct relief_terrain_
 	return 0;
 }
 
+/* Frame i of the analysed run drawn again (untimed; selecting again for the same camera
+ * keeps the LOD, as for recheck()) with its triangles captured and measured whole
+ * (relief_mesh_error()): the maxima go to res, which starts at 0 (-1 once a frame did not
+ * fit the capture). */
+static int mesh_measure(struct run *r, const struct config *c, struct relief_terrain_view *tv,
+                        const struct relief_view *v, uint32_t i, struct result *res)
+{
+	struct relief_draw_options o = c->opts;
+	o.mesh = true;
+	struct relief_terrain_stats st;
+	int ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st);
+	if (ret < 0)
+		return ret;
+	int64_t n = relief_terrain_view_mesh(tv, r->mesh, MESH_CAP);
+	if (n < 0)
+		return (int)n;
+	if (n > MESH_CAP || res->mesh_max < 0) {
+		res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
+		return 0;
+	}
+	struct relief_mesh_error e;
+	relief_mesh_error(r->f, v, r->finest, r->fw, r->fh, r->mesh, (uint64_t)n, &e);
+	res->mesh_max = fmax(res->mesh_max, e.max_px);
+	res->mesh_transition = fmax(res->mesh_transition, e.max_px_transition);
+	res->mesh_regular_worse = fmax(res->mesh_regular_worse, e.max_px_regular_worse);
+	res->transitions += (double)e.transition / (2.0 * r->frames);
+	return 0;
+}
+
 /* RMS over pixels showing terrain in both of the change of the signed error; -1 if none. */
 static double error_change(const float *a, const float *b, size_t n)
 {
@@ -270,6 +317,10 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && a.hist && a.over && a.over_px
 	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
+	if (ret == 0 && analyse && r->mesh)
+		ret = relief_terrain_view_mesh_enable(tv, MESH_CAP);
+	if (analyse && !r->mesh)
+		res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
 	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
 	uint32_t shade_frames = 0;
 	uint32_t pairs = 0;
@@ -308,6 +359,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		res->face_culled += st.face_culled;
 		frame_errors(r, c, v, i, err, &a, res);
 		if (a.nover && (ret = recheck(r, c, tv, v, i, st.triangles, &a, res)) < 0)
+			break;
+		if (r->mesh && (ret = mesh_measure(r, c, tv, v, i, res)) < 0)
 			break;
 		uint8_t *ref_rgba = r->ref_rgba + (size_t)i * 4 * W * H;
 		float *ref_depth = r->ref_depth + (size_t)i * W * H;
@@ -466,7 +519,10 @@ int bench_lod(int argc, char **argv)
 			       "For relief and chunked, each pixel over tau is measured again at three times the\n"
 			       "resolution with three times tau (same LOD, same ray): max_3x is the maximum with those\n"
 			       "values, which tells the rasteriser's depth at a far sliver from a surface over tau;\n"
-			       "--recheck-all rechecks every pixel (a check of the recheck, slow).\n");
+			       "--recheck-all rechecks every pixel (a check of the recheck, slow).\n"
+			       "mesh_max: every triangle of every frame captured and measured whole against the\n"
+			       "finest surface, between pixel centres and behind other triangles too (the JSON also\n"
+			       "splits it into the tessellator's transition triangles and the regular ones).\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -513,6 +569,10 @@ int bench_lod(int argc, char **argv)
 		}
 	}
 	flight(f, frames, w, h, r.views);
+	if (r.gpu.vk->has.mesh_capture && !(r.mesh = malloc(sizeof(*r.mesh) * 3 * (size_t)MESH_CAP))) {
+		fprintf(stderr, "relief bench lod: out of memory\n");
+		goto out;
+	}
 
 	struct config cfg[1 + 8 * 6];
 	int n = 0;
@@ -553,9 +613,9 @@ int bench_lod(int argc, char **argv)
 		       "at %ux%u on %s (%s), cache warm, GPU time from timestamps, %u runs\n", base, frames, 2 * frames,
 		       FLIGHT_SPEED / FRAME_RATE, w, h, r.gpu.vk->props.deviceName,
 		       relief_vk_device_type_name(r.gpu.vk->props.deviceType), runs);
-		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %9s %10s %10s %10s %9s\n", "method", "tau/px",
-		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "max_3x", "p99.9",
-		       "rms_err", "popping", "cam_pop", "excluded");
+		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %9s %9s %10s %10s %10s %9s\n", "method", "tau/px",
+		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "max_3x", "mesh_max",
+		       "p99.9", "rms_err", "popping", "cam_pop", "excluded");
 	}
 	/* Runs go round the configurations, so that a slow spell of the machine spreads over
 	 * all of them; errors are measured on the first run (they do not change). */
@@ -601,14 +661,21 @@ int bench_lod(int argc, char **argv)
 				       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",
 				       res[i].max_err_3x, (unsigned long long)res[i].over_tau,
 				       (unsigned long long)res[i].unresolved, res[i].recheck_diff, res[i].recheck_rms);
+			if (res[i].mesh_max >= 0)
+				printf(",\"max_err_mesh_px\":%.4f,\"max_err_mesh_transition_px\":%.4f,"
+				       "\"max_err_mesh_regular_worse_px\":%.4f,\"transition_triangles\":%.1f",
+				       res[i].mesh_max, res[i].mesh_transition, res[i].mesh_regular_worse, res[i].transitions);
 			bench_json_machine(r.gpu.vk->props.deviceName);
 		} else {
-			char m3[16] = "-";
+			char m3[16] = "-", mm[16] = "-";
 			if (res[i].max_err_3x >= 0)
 				snprintf(m3, sizeof(m3), "%.3f", res[i].max_err_3x);
-			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9s %9.2f %10.3f %10.5f %10.4f %9llu\n",
+			if (res[i].mesh_max >= 0)
+				snprintf(mm, sizeof(mm), "%.3f", res[i].mesh_max);
+			printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9s %9s %9.2f %10.3f %10.5f %10.4f "
+			       "%9llu\n",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
-			       res[i].triangles, res[i].patches, res[i].max_err, m3, res[i].p999_err, res[i].rms_err,
+			       res[i].triangles, res[i].patches, res[i].max_err, m3, mm, res[i].p999_err, res[i].rms_err,
 			       res[i].popping, res[i].camera_popping, (unsigned long long)res[i].excluded);
 		}
 	}
@@ -619,6 +686,7 @@ out:
 		relief_vk_target_finish(r.gpu.vk, &r.fine);
 	tool_renderer_finish(&r.gpu);
 	free(finest);
+	free(r.mesh);
 	free(r.views);
 	free(r.ref_err);
 	free(r.ref_rgba);

@@ -21,15 +21,16 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 {
 	if (d->wireframe && !vk->has.fill_mode_non_solid)
 		return -ENOTSUP;
-	const struct relief_vk_spirv *code[4] = { &d->vert, &d->tesc, &d->tese, &d->frag };
-	const VkShaderStageFlagBits stage[4] = {
+	const struct relief_vk_spirv *code[5] = { &d->vert, &d->tesc, &d->tese, &d->frag, &d->geom };
+	const VkShaderStageFlagBits stage[5] = {
 		VK_SHADER_STAGE_VERTEX_BIT, VK_SHADER_STAGE_TESSELLATION_CONTROL_BIT,
-		VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, VK_SHADER_STAGE_FRAGMENT_BIT,
+		VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, VK_SHADER_STAGE_FRAGMENT_BIT, VK_SHADER_STAGE_GEOMETRY_BIT,
 	};
-	VkShaderModule modules[4] = { 0 };
-	VkPipelineShaderStageCreateInfo stages[4];
+	const int n_stages = d->geom.size ? 5 : 4;
+	VkShaderModule modules[5] = { 0 };
+	VkPipelineShaderStageCreateInfo stages[5];
 	int ret = 0;
-	for (int i = 0; i < 4; i++) {
+	for (int i = 0; i < n_stages; i++) {
 		if ((ret = relief_vk_shader_module(vk, code[i]->code, code[i]->size, &modules[i])) < 0)
 			goto out;
 		stages[i] = (VkPipelineShaderStageCreateInfo){
@@ -85,7 +86,7 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 	};
 	VkGraphicsPipelineCreateInfo info = {
 		.sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO,
-		.stageCount = 4,
+		.stageCount = (uint32_t)n_stages,
 		.pStages = stages,
 		.pVertexInputState = &vertex,
 		.pInputAssemblyState = &assembly,
@@ -102,7 +103,7 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 	ret = relief_vk_check(vk, vkCreateGraphicsPipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
 	                      "vkCreateGraphicsPipelines");
 out:
-	for (int i = 0; i < 4; i++)
+	for (int i = 0; i < n_stages; i++)
 		if (modules[i])
 			vkDestroyShaderModule(vk->device, modules[i], NULL);
 	return ret;

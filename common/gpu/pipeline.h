@@ -12,6 +12,7 @@ struct relief_vk_spirv {
 
 struct relief_vk_tess_pipeline_desc {
 	struct relief_vk_spirv vert, tesc, tese, frag;
+	struct relief_vk_spirv geom; /* optional (size 0: none); needs the geometryShader feature */
 	uint32_t control_points;
 	VkPipelineLayout layout;
 	VkRenderPass pass;

@@ -18,6 +18,8 @@
 #include "terrain.frag.spv.h"
 #include "terrain.tesc.spv.h"
 #include "terrain.tese.spv.h"
+#include "terrain_mesh.geom.spv.h"
+#include "terrain_mesh.tese.spv.h"
 #include "terrain.vert.spv.h"
 
 static int layout_with_push(struct relief_vk *vk, VkDescriptorSetLayout set, VkShaderStageFlags stages, uint32_t size,
@@ -70,6 +72,21 @@ static int check_limits(struct relief_vk *vk, uint32_t max_draws)
 			return -ENOTSUP;
 		}
 	return 0;
+}
+
+/* The terrain's draw pipeline: solid, both faces kept, no capture. */
+static struct relief_vk_tess_pipeline_desc draw_pipeline_desc(const struct relief_terrain *t)
+{
+	return (struct relief_vk_tess_pipeline_desc){
+		.vert = RELIEF_SPIRV(terrain_vert_spv),
+		.tesc = RELIEF_SPIRV(terrain_tesc_spv),
+		.tese = RELIEF_SPIRV(terrain_tese_spv),
+		.frag = RELIEF_SPIRV(terrain_frag_spv),
+		.control_points = 4,
+		.layout = t->draw_layout,
+		.pass = t->pass,
+		.reversed_z = true,
+	};
 }
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,
@@ -154,16 +171,8 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv),
 	                                             &t->factors)) < 0)
 		goto fail;
-	struct relief_vk_tess_pipeline_desc d = {
-		.vert = RELIEF_SPIRV(terrain_vert_spv),
-		.tesc = RELIEF_SPIRV(terrain_tesc_spv),
-		.tese = RELIEF_SPIRV(terrain_tese_spv),
-		.frag = RELIEF_SPIRV(terrain_frag_spv),
-		.control_points = 4,
-		.layout = t->draw_layout,
-		.pass = target->pass,
-		.reversed_z = true,
-	};
+	t->pass = target->pass;
+	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
 	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_fill)) < 0)
 		goto fail;
 	d.cull_back = true;
@@ -182,6 +191,22 @@ fail:
 	return ret;
 }
 
+int terrain_mesh_pipelines_create(struct relief_terrain *t)
+{
+	if (t->mesh_fill)
+		return 0;
+	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
+	d.tese = RELIEF_SPIRV(terrain_mesh_tese_spv);
+	d.geom = RELIEF_SPIRV(terrain_mesh_geom_spv);
+	int ret = relief_vk_tess_pipeline_create(t->vk, &d, &t->mesh_fill);
+	d.cull_back = true;
+	if (ret == 0 && (ret = relief_vk_tess_pipeline_create(t->vk, &d, &t->mesh_cull)) < 0) {
+		vkDestroyPipeline(t->vk->device, t->mesh_fill, NULL);
+		t->mesh_fill = VK_NULL_HANDLE;
+	}
+	return ret;
+}
+
 uint64_t relief_terrain_bytes(const struct relief_terrain *t)
 {
 	return t->info.size + t->windows.size;
@@ -192,9 +217,9 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[8] = { t->select, t->force, t->commands, t->borders, t->factors, t->draw_fill, t->draw_cull,
-		                t->draw_wire };
-	for (int i = 0; i < 8; i++)
+	VkPipeline pipes[10] = { t->select, t->force, t->commands, t->borders, t->factors, t->draw_fill, t->draw_cull,
+		                 t->draw_wire, t->mesh_fill, t->mesh_cull };
+	for (int i = 0; i < 10; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
 	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };

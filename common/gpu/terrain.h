@@ -14,6 +14,7 @@
 
 #include "format.h"
 #include "lod.h"
+#include "mesh_error.h"
 #include "patch_cache.h"
 #include "target.h"
 
@@ -74,6 +75,9 @@ struct relief_draw_options {
 	 * from elsewhere. The view's hysteresis state is used and updated as for lod_view.
 	 * Morphing follows the drawn view's `morph`; its blend is worked out for lod_view. */
 	const struct relief_view *lod_view;
+	/* Store the frame's triangles in the view's mesh capture (relief_terrain_view_mesh_enable()
+	 * first; not with wire): -EINVAL otherwise. */
+	bool mesh;
 };
 
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then
@@ -105,6 +109,18 @@ int relief_terrain_views_span_ns(struct relief_terrain *t, struct relief_terrain
  * copied out of device memory and waited for. Returns the count or a negative errno
  * (-EBUSY while the view has a frame in flight). */
 int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);
+/* Mesh capture, for measuring a frame's error triangle by triangle (relief_mesh_error();
+ * tests, `relief bench lod`): gives the view room for max_triangles (enabling again
+ * changes it). A frame drawn with relief_draw_options.mesh then goes through pipelines
+ * that also store each triangle the tessellator makes (a geometry shader that passes it
+ * on unchanged: the same picture, at some cost). -ENOTSUP without geometry shaders that
+ * store to buffers (vk->has.mesh_capture), -EBUSY while a frame is in flight. */
+int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_triangles);
+/* The triangles of the view's last frame drawn with relief_draw_options.mesh (3 vertices
+ * each, in drawing order), up to cap of them: returns the number that frame drew, which may
+ * be more than cap or than the room enabled (only those that fit were kept); -ENODATA if no
+ * such frame was drawn since the capture was enabled, -EBUSY while a frame is in flight. */
+int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out, uint32_t cap);
 /* The last frame's requests (patch ids, unordered; at most the frame's cap), for tests;
  * returns the count (0 while the view has a frame in flight). */
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

@@ -46,7 +46,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	 * drawn from view; both give positions relative to lod's camera. */
 	const struct relief_view *lod = opts->lod_view ? opts->lod_view : view;
 	if (relief_view_check(view, &why) < 0 || relief_view_check(lod, &why) < 0 || lod->width != view->width ||
-	    lod->height != view->height)
+	    lod->height != view->height || (opts->mesh && (!v->mesh_cap || wire)))
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
@@ -132,6 +132,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->clipped.buffer, 0, 4, 0); /* its count */
+	if (opts->mesh)
+		mesh_frame_begin(v, cmd, &o);
 	/* The selection visits the patches of its frontiers only and writes their split state:
 	 * every other patch's is 0 (not split). Level 0's frontier is the root, which every
 	 * ancestor (none) lets be drawn. */
@@ -222,22 +224,26 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	 * decided by other arithmetic than its coverage, and a sliver upper side called
 	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). */
 	const VkDeviceSize split = offsetof(struct counters, draw_split);
+	VkPipeline fill, cull; /* draw_fill and draw_cull, or the mesh capture's twins */
+	mesh_pipelines(t, opts->mesh, &fill, &cull);
 	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
 		if (pass == 1)
 			draw_records(t, v, cmd, t->draw_wire, &dp, mode | 1u, 0, offsetof(struct counters, draws));
 		else if (gpu_cull) { /* one of the first two counts is 0 */
-			draw_records(t, v, cmd, t->draw_cull, &dp, mode | MODE_SKIP_CLIPPED, 0, split);
-			draw_records(t, v, cmd, t->draw_fill, &dp, mode, 0, split + 4);
-			draw_records(t, v, cmd, t->draw_fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+			draw_records(t, v, cmd, cull, &dp, mode | MODE_SKIP_CLIPPED, 0, split);
+			draw_records(t, v, cmd, fill, &dp, mode, 0, split + 4);
+			draw_records(t, v, cmd, fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
 		} else if (cpu_cull) {
-			draw_records(t, v, cmd, t->draw_cull, &dp, mode | MODE_SKIP_CLIPPED, 0, offsetof(struct counters, draws));
-			draw_records(t, v, cmd, t->draw_fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+			draw_records(t, v, cmd, cull, &dp, mode | MODE_SKIP_CLIPPED, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
 		} else
-			draw_records(t, v, cmd, t->draw_fill, &dp, mode, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, fill, &dp, mode, 0, offsetof(struct counters, draws));
 		if (v->stats_pool && pass == 0)
 			vkCmdEndQuery(cmd, v->stats_pool, 0);
 	}
 	relief_vk_target_end(target, cmd);
+	if (opts->mesh)
+		mesh_frame_end(cmd);
 	/* The counters and requests to where the CPU reads them. */
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
 	        VK_ACCESS_TRANSFER_READ_BIT);

@@ -118,8 +118,11 @@ struct draw_camera {
  * 19 the clipped list (a count, then the indices of quads the rasteriser may clip,
  * lod_factors.comp), 20 the selection's frontiers (uvec2 per patch, lod_select.comp),
  * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count),
- * 22 the index windows (per level: entry columns, rows, first entry, 0). */
-#define BINDINGS 23u
+ * 22 the index windows (per level: entry columns, rows, first entry, 0),
+ * 23 the mesh capture (terrain_mesh.geom; written only once a view enables it, and read
+ * only by the capture's pipelines). */
+#define BINDINGS 24u
+#define MESH_BINDING 23u
 #define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
 
 static inline VkDescriptorType binding_type(uint32_t i)
@@ -137,6 +140,10 @@ struct relief_terrain {
 	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
 	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
 	VkPipeline select, force, commands, borders, factors, draw_fill, draw_cull, draw_wire;
+	/* draw_fill and draw_cull with the mesh capture's stages (terrain_mesh.c), made when a
+	 * view first enables it */
+	VkPipeline mesh_fill, mesh_cull;
+	VkRenderPass pass; /* the target's, which every pipeline draws into */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
 	 * at most (every layer drawn, each with four curtains: a loose bound) */
 	/* count: entries (per-patch buffers' length) */
@@ -154,6 +161,14 @@ struct relief_terrain_view {
 	/* What the CPU reads after a frame: counters and requests, copied at its end; the
 	 * drawn instances, copied when asked for (relief_terrain_view_drawn()) */
 	struct relief_vk_buffer read_counters, read_wants, read_instances;
+	/* The mesh capture (relief_terrain_view_mesh_enable()): a header (count, capacity) and
+	 * room for mesh_cap triangles, in memory the CPU reads; none until enabled */
+	struct relief_vk_buffer mesh;
+	uint32_t mesh_cap;
+	/* the LOD camera's cell of the last frame drawn with it (the vertices are relative to
+	 * it); mesh_frames: such frames waited for */
+	int64_t mesh_cell[2];
+	uint64_t mesh_frames;
 	/* The memory of the buffers above: device (all but the last three), readback (those).
 	 * Nothing the device reads or updates every frame lives in memory the CPU maps, which
 	 * on a discrete GPU is system memory across the bus. */
@@ -176,6 +191,19 @@ struct relief_terrain_view {
 	VkFence fence;
 	bool gpu_cull; /* the GPU decided whether back faces were culled (lod_commands.comp) */
 };
+
+/* The mesh capture's header in its buffer (terrain_mesh.geom), then 3 vertices (uvec4 each:
+ * grid column and row relative to the camera's cell, height bits, patch id) a triangle. */
+struct mesh_header {
+	uint32_t count, cap, pad[2];
+};
+/* terrain.c: the mesh capture's pipelines (t->mesh_fill, mesh_cull), once. */
+int terrain_mesh_pipelines_create(struct relief_terrain *t);
+/* terrain_mesh.c: the pipelines a frame draws with (the capture's for a frame drawn with
+ * relief_draw_options.mesh), and such a frame's part before and after its draws. */
+void mesh_pipelines(const struct relief_terrain *t, bool mesh, VkPipeline *fill, VkPipeline *cull);
+void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o);
+void mesh_frame_end(VkCommandBuffer cmd);
 
 /* One global memory barrier between two stage masks. */
 static inline void barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags sa, VkPipelineStageFlags dst,

@@ -74,14 +74,15 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->clipped.buffer,
-		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer };
+		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
+		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */ };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
 			{ VK_NULL_HANDLE, pool->normals, VK_IMAGE_LAYOUT_GENERAL },
 		};
 		VkWriteDescriptorSet w[BINDINGS];
-		for (uint32_t i = 0; i < BINDINGS; i++) {
+		for (uint32_t i = 0; i < MESH_BINDING; i++) {
 			bi[i] = (VkDescriptorBufferInfo){ bufs[i], 0, VK_WHOLE_SIZE };
 			w[i] = (VkWriteDescriptorSet){
 				.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
@@ -93,7 +94,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 				.pImageInfo = i == 9 ? &ii[0] : i == 10 ? &ii[1] : NULL,
 			};
 		}
-		vkUpdateDescriptorSets(vk->device, BINDINGS, w, 0, NULL);
+		vkUpdateDescriptorSets(vk->device, MESH_BINDING, w, 0, NULL);
 	}
 	VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
 	if ((vk->has.pipeline_statistics &&
@@ -149,6 +150,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->read_counters);
 	relief_vk_buffer_finish(vk, &v->read_wants);
 	relief_vk_buffer_finish(vk, &v->read_instances);
+	relief_vk_buffer_finish(vk, &v->mesh);
 	relief_vk_buffer_group_finish(vk, &v->local);
 	relief_vk_buffer_group_finish(vk, &v->readback);
 	free(v);

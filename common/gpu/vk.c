@@ -255,11 +255,16 @@ static int create_device(struct relief_vk *vk)
 			.shaderStorageImageWriteWithoutFormat = have.features.shaderStorageImageWriteWithoutFormat,
 			.shaderStorageImageExtendedFormats = have.features.shaderStorageImageExtendedFormats,
 			.multiDrawIndirect = VK_TRUE, /* a usable device has it (describe_device()) */
+			/* for the mesh capture only (relief_terrain_view_mesh_enable()) */
+			.geometryShader = have.features.geometryShader && have.features.vertexPipelineStoresAndAtomics,
+			.vertexPipelineStoresAndAtomics =
+				have.features.geometryShader && have.features.vertexPipelineStoresAndAtomics,
 		},
 	};
 	vk->has.pipeline_statistics = have.features.pipelineStatisticsQuery && !vk->gpu_av;
 	vk->has.fill_mode_non_solid = have.features.fillModeNonSolid;
 	vk->has.draw_indirect_count = have12.drawIndirectCount;
+	vk->has.mesh_capture = want.features.geometryShader;
 	vk->has.external_memory_fd = device_extension(vk->phys, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
 
 	const char *exts[1];

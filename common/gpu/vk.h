@@ -61,6 +61,8 @@ struct relief_vk {
 		bool pipeline_statistics;
 		bool fill_mode_non_solid;
 		bool draw_indirect_count;
+		/* geometry shaders that store to buffers: the terrain's mesh capture */
+		bool mesh_capture;
 		bool external_memory_fd;
 	} has;
 

@@ -1,0 +1,96 @@
+/* The mesh capture (see terrain.h, relief_terrain_view_mesh_enable()): the terrain's
+ * draw pipelines with a geometry shader that stores every triangle (terrain_mesh.tese,
+ * terrain_mesh.geom), a buffer per view the CPU reads, and the frame's part in it. */
+#include <errno.h>
+#include <string.h>
+
+#include "pipeline.h"
+#include "terrain_internal.h"
+
+int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_triangles)
+{
+	struct relief_terrain *t = v->t;
+	struct relief_vk *vk = t->vk;
+	if (!vk->has.mesh_capture)
+		return -ENOTSUP;
+	if (v->pending)
+		return -EBUSY;
+	if (max_triangles == 0 || max_triangles > (UINT32_MAX - 1) / 3)
+		return -EINVAL;
+	int ret = terrain_mesh_pipelines_create(t);
+	if (ret < 0)
+		return ret;
+	struct relief_vk_buffer b = { 0 };
+	const VkDeviceSize size = sizeof(struct mesh_header) + 48 * (VkDeviceSize)max_triangles;
+	if ((ret = relief_vk_buffer_init(vk, &b, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 RELIEF_VK_MEMORY_READBACK)) < 0)
+		return ret;
+	/* Neither set is in use: the view has no frame in flight. */
+	relief_vk_buffer_finish(vk, &v->mesh);
+	v->mesh = b;
+	v->mesh_cap = max_triangles;
+	v->mesh_frames = 0;
+	*(struct mesh_header *)v->mesh.map = (struct mesh_header){ .cap = max_triangles };
+	VkDescriptorBufferInfo bi = { v->mesh.buffer, 0, VK_WHOLE_SIZE };
+	VkWriteDescriptorSet w[2];
+	for (int s = 0; s < 2; s++)
+		w[s] = (VkWriteDescriptorSet){
+			.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+			.dstSet = v->set[s],
+			.dstBinding = MESH_BINDING,
+			.descriptorCount = 1,
+			.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+			.pBufferInfo = &bi,
+		};
+	vkUpdateDescriptorSets(vk->device, 2, w, 0, NULL);
+	return 0;
+}
+
+void mesh_pipelines(const struct relief_terrain *t, bool mesh, VkPipeline *fill, VkPipeline *cull)
+{
+	*fill = mesh ? t->mesh_fill : t->draw_fill;
+	*cull = mesh ? t->mesh_cull : t->draw_cull;
+}
+
+void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o)
+{
+	/* The count starts at 0 (after the last frame's geometry shader, when frames share a
+	 * command buffer); the geometry shader's atomics follow the fill. */
+	barrier(cmd, VK_PIPELINE_STAGE_GEOMETRY_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+	        VK_ACCESS_TRANSFER_WRITE_BIT);
+	vkCmdFillBuffer(cmd, v->mesh.buffer, 0, sizeof(uint32_t), 0);
+	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_GEOMETRY_SHADER_BIT,
+	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+	v->mesh_cell[0] = o->cell_x;
+	v->mesh_cell[1] = o->cell_y;
+	v->mesh_frames++;
+}
+
+void mesh_frame_end(VkCommandBuffer cmd)
+{
+	barrier(cmd, VK_PIPELINE_STAGE_GEOMETRY_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+	        VK_ACCESS_HOST_READ_BIT);
+}
+
+int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out, uint32_t cap)
+{
+	if (v->pending)
+		return -EBUSY;
+	if (!v->mesh_cap || !v->mesh_frames)
+		return -ENODATA;
+	const struct mesh_header *hd = v->mesh.map;
+	const uint32_t (*in)[4] = (const void *)(hd + 1);
+	uint32_t kept = hd->count < v->mesh_cap ? hd->count : v->mesh_cap;
+	kept = kept < cap ? kept : cap;
+	for (uint64_t i = 0; i < 3 * (uint64_t)kept; i++) {
+		float height;
+		memcpy(&height, &in[i][2], sizeof(height));
+		out[i] = (struct relief_mesh_vertex){
+			.col = v->mesh_cell[0] + (int32_t)in[i][0],
+			.row = v->mesh_cell[1] + (int32_t)in[i][1],
+			.height = height,
+			.patch = in[i][3],
+		};
+	}
+	return hd->count;
+}

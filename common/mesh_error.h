@@ -1,0 +1,58 @@
+/* The error of a drawn mesh, triangle by triangle: what a frame's tessellated surface
+ * (captured with relief_terrain_view_mesh()) is off the finest decoded surface, everywhere
+ * on every triangle in the view's frustum, projected to pixels as the level of detail
+ * promises it (docs/lod.md, "Measured error"). Pixel measurements (depth against a
+ * full-resolution render) see a frame only at pixel centres, and through the rasteriser;
+ * this sees every triangle whole, including the tessellator's transition strips, which no
+ * stored block error bounds, and triangles hidden behind others. For tests and
+ * `relief bench lod`. */
+#pragma once
+
+#include <stdint.h>
+
+#include "format.h"
+#include "lod.h"
+
+/* One vertex as drawn: a finest-grid sample of the file (column and row, outside the
+ * raster for curtains along its edge) and the height drawn there (metres); the patch it
+ * belongs to. Vertices land on samples (docs/lod.md, "Fine LOD"). */
+struct relief_mesh_vertex {
+	int64_t col, row;
+	float height;
+	uint32_t patch;
+};
+
+struct relief_mesh_error {
+	/* The largest projected vertical error (pixels) against the finest surface with the
+	 * nearer of each finest cell's two triangulations at the point, the reference of the
+	 * pixel measurements too (relief_surface_vertical_error(): either diagonal may be the
+	 * one a full-resolution frame draws), and against the worse of the two, which counts
+	 * the cell's own ambiguity (so it is large wherever full resolution is drawn near the
+	 * camera, by the other diagonal) */
+	double max_px, max_px_worse;
+	double max_m;                          /* at max_px, metres */
+	struct relief_vec3 worst;              /* where max_px was found: the drawn point, world metres */
+	struct relief_mesh_vertex worst_tri[3]; /* and the triangle it lies on */
+	/* Transition triangles (the tessellator's, between an edge and an interior of other
+	 * factors: not part of any level's triangulation, so no block error bounds them) and
+	 * their largest error (pixels, nearer diagonal); regular triangles above full
+	 * resolution against the worse diagonal (block errors bound them so) */
+	uint64_t transition;
+	double max_px_transition, max_px_regular_worse;
+	uint64_t triangles; /* triangles measured: not vertical, some point in the frustum */
+	uint64_t vertical;  /* vertical triangles left out (terrain-edge curtains, skirts) */
+	uint64_t points;    /* points evaluated in the frustum */
+};
+
+/* Measures n triangles (3 n vertices) drawn for view v against the finest decoded surface
+ * (`finest`, w x h heights in metres at the file's finest samples, NaN for no-data). The
+ * difference of the flat triangle and the finest surface (either diagonal in each cell)
+ * is linear between the points where the triangle's edges cross the finest grid's lines
+ * and diagonals, the grid's samples and cells' centres inside it, and its corners, so its
+ * largest magnitude is found exactly there. Each such point in the frustum counts; one
+ * in a finest cell with a no-data corner, or outside the samples, is skipped (nothing is
+ * promised there). The projection to pixels is taken at the same points: between them it
+ * varies with the depth, by at most the relative change of depth across a finest cell, so
+ * the maximum stated may be short of the true one by that fraction. */
+void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest, uint32_t w,
+                       uint32_t h, const struct relief_mesh_vertex *tri, uint64_t n, struct relief_mesh_error *out);

@@ -1,0 +1,148 @@
+/* relief_mesh_error() on hand-made surfaces and triangles whose answers are known: it finds
+ * a peak between a triangle's corners, a crossing of a cell's diagonal, tells the two
+ * diagonals apart, skips no-data cells, vertical triangles and points outside the frustum. */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "mesh_error.h"
+
+enum { N = 9 }; /* a 9 x 9 sample grid, 10 m apart, origin (0, 80): rows run south */
+
+static struct relief_file file;
+static float z[N * N];
+
+static struct relief_view view_down(void)
+{
+	/* From 100 m south of the grid and 100 m up, towards its centre (world (40, 40)): the
+	 * whole grid in view, vertical segments seen from the side (straight down they would
+	 * project to points). */
+	return (struct relief_view){ .eye = { 40, -60, 100 }, .target = { 40, 40, 0 }, .fovy = 1.2, .width = 100,
+		                     .height = 100, .znear = 1, .zfar = 1e4, .tau = 1 };
+}
+
+static void flat(float h)
+{
+	for (int i = 0; i < N * N; i++)
+		z[i] = h;
+}
+
+static struct relief_mesh_error measure(const struct relief_mesh_vertex *t, uint64_t n, const struct relief_view *v)
+{
+	struct relief_mesh_error e;
+	relief_mesh_error(&file, v, z, N, N, t, n, &e);
+	return e;
+}
+
+static int setup(void **state)
+{
+	file.hdr.origin_x = 0;
+	file.hdr.origin_y = 80;
+	file.hdr.spacing_x = file.hdr.spacing_y = 10;
+	return 0;
+}
+
+/* A peak at one sample strictly inside a flat triangle's footprint, and one on its edge. */
+static void test_peak_inside_and_on_edge(void **state)
+{
+	struct relief_view v = view_down();
+	const struct relief_mesh_vertex t[3] = { { 0, 0, 0, 1 }, { 8, 0, 0, 1 }, { 0, 8, 0, 1 } };
+	flat(0);
+	z[2 * N + 3] = 7; /* (col 3, row 2): inside */
+	struct relief_mesh_error e = measure(t, 1, &v);
+	assert_true(fabs(e.max_m - 7) < 1e-9);
+	assert_true(fabs(e.worst.x - 30) < 1e-9 && fabs(e.worst.y - 60) < 1e-9 && e.worst.z == 0);
+	assert_int_equal(e.triangles, 1);
+	assert_int_equal(e.transition, 0); /* half of the 8 x 8 cell at (0, 0): regular */
+	flat(0);
+	z[4 * N + 4] = -3; /* (4, 4): on the hypotenuse */
+	e = measure(t, 1, &v);
+	assert_true(fabs(e.max_m - 3) < 1e-9);
+	/* In pixels: the segment from the drawn point down to the peak. */
+	double px = relief_view_segment_px(&v, (struct relief_vec3){ 40, 40, 0 }, -3.0);
+	assert_true(px > 1 && fabs(e.max_px - px) < 1e-9 * px);
+}
+
+/* A flat triangle over a cell whose two diagonals differ: against the nearer one the
+ * error is where the triangle's edge crosses the cell, against the worse one at its centre. */
+static void test_diagonals(void **state)
+{
+	struct relief_view v = view_down();
+	flat(0);
+	/* cell (4, 4): corners a (4, 4) = 0, b (5, 4) = 4, c (4, 5) = 4, d (5, 5) = 0: at the centre the
+	 * a-d diagonal gives 0, the b-c one 4 */
+	z[4 * N + 5] = 4;
+	z[5 * N + 4] = 4;
+	const struct relief_mesh_vertex t[3] = { { 4, 4, 0, 1 }, { 6, 4, 0, 1 }, { 4, 6, 0, 1 } };
+	struct relief_mesh_error e = measure(t, 1, &v);
+	/* 4 m at the samples b and c themselves, where both diagonals agree, is the largest. */
+	assert_true(fabs(e.max_m - 4) < 1e-9);
+	z[4 * N + 5] = 2;
+	z[5 * N + 4] = 2;
+	const struct relief_mesh_vertex t0[3] = { { 4, 4, 0, 1 }, { 5, 4, 2, 1 }, { 4, 5, 2, 1 } };
+	e = measure(t0, 1, &v);
+	/* With b and c at 2, t0 is the b-c triangulation's own triangle over the cell's upper-left
+	 * half: no error against that diagonal, 2 m against a-d at the centre (a-d gives 0). */
+	assert_true(e.max_px == 0.0);
+	assert_true(e.max_px_worse > 0.0);
+	/* A regular triangle of side 1 is the finest level itself: not counted as above it. */
+	assert_true(e.max_px_regular_worse == 0.0);
+	assert_int_equal(e.transition, 0);
+}
+
+/* A triangle whose regular shape and alignment make it part of a level's triangulation. */
+static void test_regular_and_transition(void **state)
+{
+	struct relief_view v = view_down();
+	flat(0);
+	const struct relief_mesh_vertex regular[3] = { { 4, 0, 0, 1 }, { 8, 0, 0, 1 }, { 8, 4, 0, 1 } };
+	const struct relief_mesh_vertex misaligned[3] = { { 2, 0, 0, 1 }, { 6, 0, 0, 1 }, { 6, 4, 0, 1 } };
+	const struct relief_mesh_vertex strip[3] = { { 0, 0, 0, 1 }, { 4, 0, 0, 1 }, { 0, 2, 0, 1 } };
+	assert_int_equal(measure(regular, 1, &v).transition, 0);
+	assert_int_equal(measure(misaligned, 1, &v).transition, 1);
+	assert_int_equal(measure(strip, 1, &v).transition, 1);
+}
+
+/* No-data cells, vertical triangles and points outside the frustum are left out. */
+static void test_left_out(void **state)
+{
+	struct relief_view v = view_down();
+	flat(0);
+	for (int r = 1; r <= 3; r++) /* every cell the triangle touches has a no-data corner */
+		for (int c = 2; c <= 4; c++)
+			z[r * N + c] = NAN;
+	const struct relief_mesh_vertex t[3] = { { 2, 1, 5, 1 }, { 4, 1, 5, 1 }, { 2, 3, 5, 1 } };
+	struct relief_mesh_error e = measure(t, 1, &v);
+	assert_int_equal(e.points, 0);
+	assert_int_equal(e.triangles, 0);
+	const struct relief_mesh_vertex curtain[3] = { { 0, 0, 0, 1 }, { 0, 0, -50, 1 }, { 0, 8, 0, 1 } };
+	e = measure(curtain, 1, &v);
+	assert_int_equal(e.vertical, 1);
+	assert_int_equal(e.points, 0);
+	/* Looking away (up): nothing in the frustum. */
+	flat(0);
+	struct relief_view up = v;
+	up.target.z = 2000;
+	const struct relief_mesh_vertex far[3] = { { 0, 0, 9, 1 }, { 8, 0, 9, 1 }, { 0, 8, 9, 1 } };
+	e = measure(far, 1, &up);
+	assert_int_equal(e.points, 0);
+	assert_true(e.max_px == 0.0);
+	e = measure(far, 1, &v);
+	assert_true(e.points > 0 && fabs(e.max_m - 9) < 1e-9);
+}
+
+int main(void)
+{
+	const struct CMUnitTest tests[] = {
+		cmocka_unit_test(test_peak_inside_and_on_edge),
+		cmocka_unit_test(test_diagonals),
+		cmocka_unit_test(test_regular_and_transition),
+		cmocka_unit_test(test_left_out),
+	};
+	return cmocka_run_group_tests(tests, setup, NULL);
+}
