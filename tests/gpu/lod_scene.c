@@ -217,6 +217,20 @@ static void bound_buffers(struct bound_scene *b)
 	b->lod = malloc(sizeof(float) * BW * BH);
 }
 
+/* Puget Sound spans x, y in [0, 163840] m; Mt Rainier's summit is at (128480, 79200). */
+const struct pose puget_bound_poses[PUGET_BOUND_POSES] = {
+	{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
+	{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing */
+	{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
+	{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
+};
+/* Mont Blanc: x in [0, 59884] m, y in [0, 59884] m, heights 454-4810 m. */
+const struct pose alps_bound_poses[ALPS_BOUND_POSES] = {
+	{ { 8000, 30000, 1200 }, { 50000, 32000, 1500 } },     /* grazing along a valley floor */
+	{ { 30000, 30000, 9000 }, { 30100, 30200, 3000 } },    /* steep look down onto the massif */
+	{ { 23731, 23731, 5600 }, { 40000, 40000, 2500 } },    /* eye above a patch corner */
+};
+
 void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem)
 {
 	scene_open(&b->s, vk, dem, 1.0, BW, BH);

@@ -87,6 +87,11 @@ struct pose {
 	double eye[3], at[3];
 };
 
+/* The poses the bound is checked from, pixel by pixel (test_lod_bound) and triangle by
+ * triangle (test_lod_mesh): Puget Sound's and Mont Blanc's. */
+enum { PUGET_BOUND_POSES = 4, ALPS_BOUND_POSES = 3 };
+extern const struct pose puget_bound_poses[PUGET_BOUND_POSES], alps_bound_poses[ALPS_BOUND_POSES];
+
 enum { BW = 320, BH = 180 }; /* bound_scene size */
 
 /* A BW x BH scene of a DEM packed at 1 m, its finest level decoded, two depth images. */

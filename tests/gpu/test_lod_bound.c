@@ -52,25 +52,12 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 
 static void test_watertight_and_error_bound_puget(void **state)
 {
-	/* Puget Sound spans x, y in [0, 163840] m; Mt Rainier's summit is at (128480, 79200). */
-	const struct pose poses[] = {
-		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
-		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing */
-		{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
-		{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
-	};
-	watertight_and_error_bound(DEM_PUGET, poses, NULL, sizeof(poses) / sizeof(poses[0]));
+	watertight_and_error_bound(DEM_PUGET, puget_bound_poses, NULL, PUGET_BOUND_POSES);
 }
 
 static void test_watertight_and_error_bound_alps(void **state)
 {
-	/* Mont Blanc: x in [0, 59884] m, y in [0, 59884] m, heights 454-4810 m. */
-	const struct pose poses[] = {
-		{ { 8000, 30000, 1200 }, { 50000, 32000, 1500 } },     /* grazing along a valley floor */
-		{ { 30000, 30000, 9000 }, { 30100, 30200, 3000 } },    /* steep look down onto the massif */
-		{ { 23731, 23731, 5600 }, { 40000, 40000, 2500 } },    /* eye above a patch corner */
-	};
-	watertight_and_error_bound(DEM_ALPS, poses, NULL, sizeof(poses) / sizeof(poses[0]));
+	watertight_and_error_bound(DEM_ALPS, alps_bound_poses, NULL, ALPS_BOUND_POSES);
 }
 
 /* Banked and straight-down cameras (relief_view.roll, relief_view_axes()): watertight and

@@ -75,24 +75,12 @@ static void mesh_within_tau(enum test_dem dem, const struct pose *poses, size_t 
 
 static void test_mesh_within_tau_puget(void **state)
 {
-	/* The poses of test_lod_bound's watertight test. */
-	const struct pose poses[] = {
-		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },
-		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },      /* grazing */
-		{ { 81920, 81920, 9000 }, { 81925, 81930, 0 } },       /* above a patch corner */
-		{ { 126000, 77000, 4200 }, { 128480, 79200, 4000 } },  /* near the summit cliffs */
-	};
-	mesh_within_tau(DEM_PUGET, poses, sizeof(poses) / sizeof(poses[0]));
+	mesh_within_tau(DEM_PUGET, puget_bound_poses, PUGET_BOUND_POSES);
 }
 
 static void test_mesh_within_tau_alps(void **state)
 {
-	const struct pose poses[] = {
-		{ { 8000, 30000, 1200 }, { 50000, 32000, 1500 } },     /* grazing along a valley floor */
-		{ { 30000, 30000, 9000 }, { 30100, 30200, 3000 } },    /* steep look down onto the massif */
-		{ { 23731, 23731, 5600 }, { 40000, 40000, 2500 } },    /* eye above a patch corner */
-	};
-	mesh_within_tau(DEM_ALPS, poses, sizeof(poses) / sizeof(poses[0]));
+	mesh_within_tau(DEM_ALPS, alps_bound_poses, ALPS_BOUND_POSES);
 }
 
 /* The capture changes nothing drawn: colour and depth bit for bit those of the same frame
@@ -106,8 +94,7 @@ static void test_mesh_capture_and_measure(void **state)
 	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)MESH_CAP);
 	const size_t px = (size_t)BW * BH;
 	uint8_t *rgba = malloc(4 * px);
-	const struct pose pose = { { 100000, 50000, 5500 }, { 128480, 79200, 3000 } };
-	struct relief_view v = pose_view(&pose);
+	struct relief_view v = pose_view(&puget_bound_poses[0]);
 	v.tau = 2.0;
 	struct relief_terrain_stats st;
 	const struct relief_draw_options plain = { .fine = RELIEF_FINE_ERRORS };
