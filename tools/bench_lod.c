@@ -541,7 +541,7 @@ int bench_lod(int argc, char **argv)
 	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all };
 	float *finest = NULL;
 	int status = 1, ret;
-	struct relief_vk_options vo = { .device = device, .log = &cli_log };
+	struct relief_vk_options vo = { .device = device, .log = &cli_log, .mesh_capture = true };
 	struct relief_patch_cache_options co = { .budget_bytes = 1ull << 30 };
 	r.views = calloc(2 * frames, sizeof(*r.views));
 	r.ref_err = malloc(sizeof(float) * 2 * frames * w * h);

@@ -229,7 +229,7 @@ out:
 	return ret;
 }
 
-static int create_device(struct relief_vk *vk)
+static int create_device(struct relief_vk *vk, bool mesh_capture)
 {
 	int ret = pick_queue_family(vk->phys, &vk->queue_family, &vk->timestamp_valid_bits);
 	if (ret < 0)
@@ -241,6 +241,8 @@ static int create_device(struct relief_vk *vk)
 	VkPhysicalDeviceFeatures2 have = { .sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, .pNext = &have12 };
 	vkGetPhysicalDeviceFeatures2(vk->phys, &have);
 
+	const VkBool32 capture =
+		mesh_capture && have.features.geometryShader && have.features.vertexPipelineStoresAndAtomics;
 	VkPhysicalDeviceVulkan12Features want12 = {
 		.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES,
 		.drawIndirectCount = have12.drawIndirectCount,
@@ -255,16 +257,15 @@ static int create_device(struct relief_vk *vk)
 			.shaderStorageImageWriteWithoutFormat = have.features.shaderStorageImageWriteWithoutFormat,
 			.shaderStorageImageExtendedFormats = have.features.shaderStorageImageExtendedFormats,
 			.multiDrawIndirect = VK_TRUE, /* a usable device has it (describe_device()) */
-			/* for the mesh capture only (relief_terrain_view_mesh_enable()) */
-			.geometryShader = have.features.geometryShader && have.features.vertexPipelineStoresAndAtomics,
-			.vertexPipelineStoresAndAtomics =
-				have.features.geometryShader && have.features.vertexPipelineStoresAndAtomics,
+			/* for the mesh capture only, when asked for (relief_vk_options.mesh_capture) */
+			.geometryShader = capture,
+			.vertexPipelineStoresAndAtomics = capture,
 		},
 	};
 	vk->has.pipeline_statistics = have.features.pipelineStatisticsQuery && !vk->gpu_av;
 	vk->has.fill_mode_non_solid = have.features.fillModeNonSolid;
 	vk->has.draw_indirect_count = have12.drawIndirectCount;
-	vk->has.mesh_capture = want.features.geometryShader;
+	vk->has.mesh_capture = capture;
 	vk->has.external_memory_fd = device_extension(vk->phys, VK_KHR_EXTERNAL_MEMORY_FD_EXTENSION_NAME);
 
 	const char *exts[1];
@@ -323,7 +324,7 @@ int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **ou
 	const char *want = env_device && *env_device ? env_device : opts->device;
 
 	if ((ret = create_instance(vk)) < 0 || (ret = choose_device(vk, want)) < 0 ||
-	    (ret = create_device(vk)) < 0)
+	    (ret = create_device(vk, opts->mesh_capture)) < 0)
 		goto fail;
 	*out = vk;
 	return 0;

@@ -35,6 +35,12 @@ struct relief_vk_options {
 	 * on, RELIEF_GPU_AV=1 adds GPU-assisted validation (struct relief_vk's gpu_av). */
 	bool validation;
 	const struct relief_logger *log;
+	/* Enable what the terrain's mesh capture needs (geometry shaders that store to
+	 * buffers; relief_terrain_view_mesh_enable()) where the device has it: has.mesh_capture.
+	 * Off unless asked for: with vertex-pipeline stores enabled, GPU-assisted validation
+	 * instruments every vertex, tessellation and geometry shader, which on lavapipe made
+	 * the GPU tests several times slower under it. */
+	bool mesh_capture;
 };
 
 #define RELIEF_VK_CAPTURE_FENCES 32
@@ -61,7 +67,8 @@ struct relief_vk {
 		bool pipeline_statistics;
 		bool fill_mode_non_solid;
 		bool draw_indirect_count;
-		/* geometry shaders that store to buffers: the terrain's mesh capture */
+		/* geometry shaders that store to buffers, enabled (relief_vk_options.mesh_capture):
+		 * the terrain's mesh capture */
 		bool mesh_capture;
 		bool external_memory_fd;
 	} has;

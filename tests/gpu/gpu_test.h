@@ -24,9 +24,13 @@ static int gpu_test_pin_one(struct dl_phdr_info *info, size_t size, void *data)
 static enum relief_log_level gpu_test_level = RELIEF_LOG_WARN;
 static struct relief_logger gpu_test_log = { relief_log_stderr, &gpu_test_level };
 
+/* Set by a test program before its group starts: its context enables the mesh capture
+ * (relief_vk_options.mesh_capture). */
+static bool gpu_test_mesh_capture;
+
 static inline struct relief_vk *gpu_test_context(void)
 {
-	struct relief_vk_options o = { .validation = true, .log = &gpu_test_log };
+	struct relief_vk_options o = { .validation = true, .log = &gpu_test_log, .mesh_capture = gpu_test_mesh_capture };
 	struct relief_vk *vk = NULL;
 	int ret = relief_vk_create(&o, &vk);
 	if (ret < 0)

@@ -142,5 +142,6 @@ int main(void)
 		cmocka_unit_test(test_mesh_within_tau_alps),
 		cmocka_unit_test(test_mesh_capture_and_measure),
 	};
+	gpu_test_mesh_capture = true;
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }
