@@ -9,9 +9,11 @@
 #include <string.h>
 
 #include "cli.h"
+#include "decode.h"
 #include "format.h"
 #include "le.h"
 #include "lod.h"
+#include "mesh_error.h"
 #include "patch_cache.h"
 #include "renderer.h"
 #include "terrain.h"
@@ -34,9 +36,74 @@ static void snap_usage(FILE *f)
 		"      --morph          geomorph changes of level (a blend, not a pop; docs/lod.md)\n"
 		"      --depth FILE     distance along the view axis per pixel: little-endian float32,\n"
 		"                       row-major from the top row, +infinity where no terrain is seen\n"
+		"      --exact          also measure the frame triangle by triangle against the finest\n"
+		"                       decoded surface (decodes the whole finest level; docs/lod.md)\n"
 		"      --budget MIB     GPU memory for the patch cache (default 256)\n"
 		"      --device DEV     Vulkan device: name substring, deviceUUID or render node\n"
 		"      --validation     enable the Khronos validation layer\n");
+}
+
+/* The finest level larger than this is not decoded for --exact (4 GiB of heights). */
+#define EXACT_MAX_SAMPLES (1ull << 30)
+
+/* --exact: the converged frame drawn once more with its triangles captured (selecting again
+ * for the same camera keeps the LOD), each measured against the finest decoded surface
+ * (relief_mesh_error()); prints the result. `triangles`: the frame's count, 0 if unknown. */
+static int snap_exact(const struct relief_file *f, struct tool_renderer *g, struct relief_terrain_view *tv,
+                      const struct relief_view *view, uint64_t frame, uint64_t triangles)
+{
+	uint32_t fw, fh;
+	relief_level_extent(&f->hdr, f->hdr.levels - 1, &fw, &fh);
+	if ((uint64_t)fw * fh > EXACT_MAX_SAMPLES) {
+		fprintf(stderr, "relief snap: --exact: the finest level has %llu samples, more than the %llu it decodes\n",
+		        (unsigned long long)fw * fh, (unsigned long long)EXACT_MAX_SAMPLES);
+		return -EFBIG;
+	}
+	if (!g->vk->has.mesh_capture) {
+		fprintf(stderr, "relief snap: --exact: this device has no geometry shaders that store to buffers\n");
+		return -ENOTSUP;
+	}
+	uint32_t cap = triangles > 0 && triangles < (1u << 26) ? (uint32_t)triangles + 1024 : 1u << 22;
+	float *finest = malloc(sizeof(float) * fw * fh);
+	struct relief_mesh_vertex *tri = NULL;
+	int64_t n = 0;
+	int ret = finest ? relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL) : -ENOMEM;
+	for (int pass = 0; ret >= 0 && pass < 2; pass++) { /* again with room for all if they did not fit */
+		const struct relief_draw_options dopt = { .mesh = true };
+		struct relief_terrain_stats st;
+		free(tri);
+		tri = malloc(sizeof(*tri) * 3 * (size_t)cap);
+		if (!tri) {
+			ret = -ENOMEM;
+			break;
+		}
+		if ((ret = relief_terrain_view_mesh_enable(tv, cap)) < 0 ||
+		    (ret = relief_terrain_draw(g->terrain, tv, view, &g->target, frame + pass, &dopt, &st)) < 0 ||
+		    (n = relief_terrain_view_mesh(tv, tri, cap)) < 0)
+			break;
+		if (n <= cap)
+			break;
+		cap = n < (1 << 26) ? (uint32_t)n : 1u << 26;
+	}
+	if (ret >= 0 && n < 0)
+		ret = (int)n;
+	if (ret >= 0 && n > cap)
+		ret = -E2BIG;
+	if (ret < 0) {
+		fprintf(stderr, "relief snap: --exact: %s\n", strerror(-ret));
+	} else {
+		struct relief_mesh_error e;
+		relief_mesh_error(f, view, finest, fw, fh, tri, (uint64_t)n, &e);
+		printf("relief snap: exact: %lld triangles (%llu transition, %llu vertical) measured at %llu points: "
+		       "max %.3f px (%.2f m) at (%.1f, %.1f, %.1f), patch %u; regular triangles %.3f px against either "
+		       "diagonal, transition triangles %.3f px\n",
+		       (long long)n, (unsigned long long)e.transition, (unsigned long long)e.vertical,
+		       (unsigned long long)e.points, e.max_px, e.max_m, e.worst.x, e.worst.y, e.worst.z, e.worst_tri[0].patch,
+		       e.max_px_regular_worse, e.max_px_transition);
+	}
+	free(tri);
+	free(finest);
+	return ret;
 }
 
 int cmd_snap(int argc, char **argv)
@@ -49,11 +116,11 @@ int cmd_snap(int argc, char **argv)
 		{ "budget", required_argument, NULL, 'b' }, { "device", required_argument, NULL, 'd' },
 		{ "validation", no_argument, NULL, 'V' },   { "help", no_argument, NULL, 'h' },
 		{ "roll", required_argument, NULL, 'r' },   { "morph", no_argument, NULL, 'M' },
-		{ 0 },
+		{ "exact", no_argument, NULL, 'E' },        { 0 },
 	};
 	const char *output = NULL, *depth_path = NULL, *device = NULL;
 	double cam[3], look[3], fov = 50.0, tau = 1.0, roll = 0.0;
-	bool have_cam = false, have_look = false, wire = false, validation = false, morph = false;
+	bool have_cam = false, have_look = false, wire = false, validation = false, morph = false, exact = false;
 	uint32_t width = 1280, height = 720, budget = 256;
 	int c;
 	opterr = 0;
@@ -88,6 +155,7 @@ int cmd_snap(int argc, char **argv)
 			break;
 		case 'w': wire = true; break;
 		case 'M': morph = true; break;
+		case 'E': exact = true; break;
 		case 'D': depth_path = optarg; break;
 		case 'b':
 			if (!cli_parse_u32("snap", "--budget", optarg, 1, 1048576, &budget))
@@ -141,7 +209,7 @@ int cmd_snap(int argc, char **argv)
 		relief_file_close(f);
 		return EXIT_USAGE;
 	}
-	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log };
+	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log, .mesh_capture = exact };
 	struct tool_renderer g;
 	struct relief_terrain_view *tv = NULL;
 	struct relief_patch_cache_options co = { .budget_bytes = (uint64_t)budget << 20 };
@@ -203,6 +271,8 @@ int cmd_snap(int argc, char **argv)
 	       output, width, height, tau, st.patches, st.draws, (unsigned long long)st.triangles, st.gpu_ns / 1e6,
 	       st.lod_ns / 1e6, st.select_ns / 1e6, st.face_culled ? "culled" : "drawn (the camera may be below the surface)",
 	       st.clipped_quads, frames, (unsigned long long)cs.decoded, st.requests);
+	if (exact && (ret = snap_exact(f, &g, tv, &view, 4u * h->levels + 5u, st.triangles)) < 0)
+		goto out;
 	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;
 out:
 	relief_terrain_view_destroy(tv);

@@ -220,6 +220,11 @@ expect_text snap-summary "patches in"
 [ "$(stat -c %s "$tmp/snap.f32")" -eq $((96 * 54 * 4)) ] || { echo "FAIL depth size"; fails=$((fails + 1)); }
 # the top row looks at the sky: +infinity (0x7f800000, little-endian)
 [ "$(head -c 4 "$tmp/snap.f32" | od -An -tx1 | tr -d ' ')" = "0000807f" ] || { echo "FAIL sky depth is not +inf"; fails=$((fails + 1)); }
+# --exact: the frame measured triangle by triangle, under the validation layer, which the
+# capture's pipelines keep quiet too (exit 1 on any message)
+vkcheck snap-exact 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/exact.png" --exact --validation
+expect_text snap-exact-line "relief snap: exact: "
+expect_text snap-exact-regular "regular triangles "
 vkcheck snap-nan 2 "$relief" snap "$tmp/ps.relief" --camera nan,0,100 --look 1,1,0 -o "$tmp/x.png"
 expect_text snap-nan-named "--camera"
 vkcheck snap-zero-size 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --size 0x10 -o "$tmp/x.png"
