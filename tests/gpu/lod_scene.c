@@ -208,7 +208,7 @@ uint32_t max_level_jump(const struct scene *s, const uint32_t *ids, uint32_t n)
 }
 
 /* The finest level and the two depth images of a bound scene whose scene is open. */
-static void bound_buffers(struct bound_scene *b)
+void bound_buffers(struct bound_scene *b)
 {
 	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
 	b->finest = malloc(sizeof(float) * b->fw * b->fh);
@@ -216,6 +216,36 @@ static void bound_buffers(struct bound_scene *b)
 	b->ref = malloc(sizeof(float) * BW * BH);
 	b->lod = malloc(sizeof(float) * BW * BH);
 }
+
+struct relief_dem grid_dem(int N)
+{
+	struct relief_dem dem = { .width = (uint32_t)N, .height = (uint32_t)N, .spacing_x = 30, .spacing_y = 30,
+		                  .origin_y = 30.0 * (N - 1) };
+	dem.heights = calloc((size_t)N * N, sizeof(float));
+	dem.valid = malloc((size_t)N * N);
+	memset(dem.valid, 1, (size_t)N * N);
+	return dem;
+}
+
+struct relief_dem cliffs_dem(void)
+{
+	enum { N = 513 };
+	struct relief_dem dem = grid_dem(N);
+	for (int i = 0; i < N * N; i++) {
+		int x = i % N, y = i / N; /* y: rows from the north */
+		dem.heights[i] = (float)(0.5 * x + 0.3 * y + (x >= 256 ? 1000.0 : 0.0) + (x + y >= 600 ? 300.0 : 0.0));
+	}
+	return dem;
+}
+
+#define CLIFF_X (30.0 * 256) /* the north-south cliff's x; world y runs north */
+const struct pose cliffs_poses[CLIFFS_POSES] = {
+	{ { CLIFF_X - 3000, 5000, 600 }, { CLIFF_X, 7000, 500 } },      /* at the face from the low side */
+	{ { CLIFF_X - 200, 1000, 700 }, { CLIFF_X - 100, 14000, 600 } }, /* along its foot (130 m above the ground) */
+	{ { CLIFF_X + 200, 1000, 1600 }, { CLIFF_X + 100, 14000, 1300 } }, /* along its top */
+	{ { CLIFF_X, 7680, 6000 }, { CLIFF_X + 10, 7690, 0 } },          /* straight down on it */
+	{ { 12000, 14000, 2500 }, { 9000, 9000, 1200 } },                /* at the diagonal step */
+};
 
 /* Puget Sound spans x, y in [0, 163840] m; Mt Rainier's summit is at (128480, 79200). */
 const struct pose puget_bound_poses[PUGET_BOUND_POSES] = {

@@ -87,6 +87,15 @@ struct pose {
 	double eye[3], at[3];
 };
 
+/* An N x N grid 30 m apart whose north-west sample is at (0, 30 (N - 1)), so that its
+ * south-west one is at the origin: heights 0, every sample valid (the caller finishes it). */
+struct relief_dem grid_dem(int N);
+/* 513 x 513 of that grid on a slope, with a 1,000 m step between two samples along a
+ * patch border (x = 256) and a 300 m diagonal step (x + y = 600), and poses at both. */
+struct relief_dem cliffs_dem(void);
+enum { CLIFFS_POSES = 5 };
+extern const struct pose cliffs_poses[CLIFFS_POSES];
+
 /* The poses the bound is checked from, pixel by pixel (test_lod_bound) and triangle by
  * triangle (test_lod_mesh): Puget Sound's and Mont Blanc's. */
 enum { PUGET_BOUND_POSES = 4, ALPS_BOUND_POSES = 3 };
@@ -105,6 +114,8 @@ void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);
 /* The same for a DEM of the test's own (the caller keeps it). */
 void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem);
 void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch);
+/* The finest level and the depth images for a scene opened otherwise (scene_open_at()). */
+void bound_buffers(struct bound_scene *b);
 /* Also fails the test if the validation layer spoke. */
 void bound_close(struct bound_scene *b);
 

@@ -167,18 +167,6 @@ static void test_edge_curtain(void **state)
 	bound_close(&b);
 }
 
-/* An N x N grid 30 m apart whose north-west sample is at (0, 30 (N - 1)), so that its
- * south-west one is at the origin: heights 0, every sample valid. */
-static struct relief_dem grid_dem(int N)
-{
-	struct relief_dem dem = { .width = (uint32_t)N, .height = (uint32_t)N, .spacing_x = 30, .spacing_y = 30,
-		                  .origin_y = 30.0 * (N - 1) };
-	dem.heights = calloc((size_t)N * N, sizeof(float));
-	dem.valid = malloc((size_t)N * N);
-	memset(dem.valid, 1, (size_t)N * N);
-	return dem;
-}
-
 /* A 32-bit integer hash (mixing constants of the "lowbias32" family): the test terrains'
  * noise and the sweep's camera positions, the same on every machine. */
 static uint32_t hash32(uint32_t x)
@@ -682,25 +670,13 @@ static void test_flat_sea(void **state)
  * off.) */
 static void test_cliffs(void **state)
 {
-	enum { N = 513 };
-	struct relief_dem dem = grid_dem(N);
-	for (int i = 0; i < N * N; i++) {
-		int x = i % N, y = i / N; /* y: rows from the north */
-		dem.heights[i] = (float)(0.5 * x + 0.3 * y + (x >= 256 ? 1000.0 : 0.0) + (x + y >= 600 ? 300.0 : 0.0));
-	}
+	struct relief_dem dem = cliffs_dem();
 	struct bound_scene b;
 	bound_open_dem(&b, vk, &dem);
 	relief_dem_finish(&dem);
-	const double cx = 30.0 * 256; /* the north-south cliff's x; world y runs north */
-	const struct pose poses[] = {
-		{ { cx - 3000, 5000, 600 }, { cx, 7000, 500 } },      /* at the face from the low side */
-		{ { cx - 200, 1000, 700 }, { cx - 100, 14000, 600 } }, /* along its foot (130 m above the ground) */
-		{ { cx + 200, 1000, 1600 }, { cx + 100, 14000, 1300 } }, /* along its top */
-		{ { cx, 7680, 6000 }, { cx + 10, 7690, 0 } },          /* straight down on it */
-		{ { 12000, 14000, 2500 }, { 9000, 9000, 1200 } },      /* at the diagonal step */
-	};
+	const struct pose *poses = cliffs_poses;
 	const double taus[] = { 1.0, 4.0 };
-	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
+	for (size_t p = 0; p < CLIFFS_POSES; p++) {
 		struct relief_view v = pose_view(&poses[p]);
 		struct relief_terrain_stats st;
 		render(&b.s, &v, b.ref, &st);
