@@ -166,7 +166,7 @@ struct relief_terrain_view {
 	struct relief_vk_buffer mesh;
 	uint32_t mesh_cap;
 	/* the LOD camera's cell of the last frame drawn with it (the vertices are relative to
-	 * it); mesh_frames: such frames waited for */
+	 * it); mesh_frames: such frames recorded since the capture was enabled */
 	int64_t mesh_cell[2];
 	uint64_t mesh_frames;
 	/* The memory of the buffers above: device (all but the last three), readback (those).
