@@ -75,13 +75,12 @@ static void probe_at(struct probe *p, double x, double y)
 		o->worst = (struct relief_vec3){ at.x + p->v->eye.x, at.y + p->v->eye.y, hz };
 		memcpy(o->worst_tri, p->tri, sizeof(o->worst_tri));
 	}
-	if (worse != 0.0)
-		o->max_px_worse = fmax(o->max_px_worse, relief_segment_px(&p->vp, p->v->width, p->v->height, at, worse));
+	const double pw = worse == 0.0 ? 0.0 : relief_segment_px(&p->vp, p->v->width, p->v->height, at, worse);
+	o->max_px_worse = fmax(o->max_px_worse, pw);
 	if (p->transition)
 		o->max_px_transition = fmax(o->max_px_transition, px);
-	else if (p->cell > 1 && worse != 0.0) /* a regular triangle above full resolution */
-		o->max_px_regular_worse =
-			fmax(o->max_px_regular_worse, relief_segment_px(&p->vp, p->v->width, p->v->height, at, worse));
+	else if (p->cell > 1) /* a regular triangle above full resolution */
+		o->max_px_regular_worse = fmax(o->max_px_regular_worse, pw);
 }
 
 /* Every point where edge (x0, y0) - (x1, y1) crosses a line g(x, y) = k, k an integer

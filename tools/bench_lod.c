@@ -238,6 +238,11 @@ static int recheck(struct run *r, const struct config *c, struct relief_terrain_
 	return 0;
 }
 
+static void mesh_unmeasured(struct result *res)
+{
+	res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
+}
+
 /* Frame i of the analysed run drawn again (untimed; selecting again for the same camera
  * keeps the LOD, as for recheck()) with its triangles captured and measured whole
  * (relief_mesh_error()): the maxima go to res, which starts at 0 (-1 once a frame did not
@@ -255,7 +260,7 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 	if (n < 0)
 		return (int)n;
 	if (n > MESH_CAP || res->mesh_max < 0) {
-		res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
+		mesh_unmeasured(res);
 		return 0;
 	}
 	struct relief_mesh_error e;
@@ -320,7 +325,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	if (ret == 0 && analyse && r->mesh)
 		ret = relief_terrain_view_mesh_enable(tv, MESH_CAP);
 	if (analyse && !r->mesh)
-		res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
+		mesh_unmeasured(res);
 	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
 	uint32_t shade_frames = 0;
 	uint32_t pairs = 0;
@@ -360,8 +365,6 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		frame_errors(r, c, v, i, err, &a, res);
 		if (a.nover && (ret = recheck(r, c, tv, v, i, st.triangles, &a, res)) < 0)
 			break;
-		if (r->mesh && (ret = mesh_measure(r, c, tv, v, i, res)) < 0)
-			break;
 		uint8_t *ref_rgba = r->ref_rgba + (size_t)i * 4 * W * H;
 		float *ref_depth = r->ref_depth + (size_t)i * W * H;
 		if (c->reference) {
@@ -386,6 +389,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 				pops[pairs++] = d;
 			}
 		}
+		/* Last: it draws the frame again into the target the statistics above read. */
+		if (r->mesh && (ret = mesh_measure(r, c, tv, v, i, res)) < 0)
+			break;
 		float *t = prev;
 		prev = err;
 		err = t;
