@@ -3,6 +3,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "layout.h"
 #include "mesh_error.h"
 
 /* One triangle being measured, and what the measurement needs. */
@@ -18,6 +19,7 @@ struct probe {
 	/* a regular triangle's side (finest cells), or a transition triangle */
 	int64_t cell;
 	bool transition;
+	enum relief_mesh_kind kind;
 	bool seen; /* a point of it was in the frustum */
 	struct relief_mesh_error *out;
 };
@@ -77,6 +79,7 @@ static void probe_at(struct probe *p, double x, double y)
 	}
 	const double pw = worse == 0.0 ? 0.0 : relief_segment_px(&p->vp, p->v->width, p->v->height, at, worse);
 	o->max_px_worse = fmax(o->max_px_worse, pw);
+	o->kind_max_px[p->kind] = fmax(o->kind_max_px[p->kind], px);
 	if (p->transition)
 		o->max_px_transition = fmax(o->max_px_transition, px);
 	else if (p->cell > 1) /* a regular triangle above full resolution */
@@ -144,8 +147,72 @@ static int64_t regular_side(const struct relief_mesh_vertex *c)
 	return 0;
 }
 
+/* Which edge's strip of the quad a transition triangle lies in, with corners at patch
+ * samples (a, b) of the quad and an inner ring si samples in from the edges: every corner
+ * on the edge or on the ring, at least one on each; the edge holding two corners if two
+ * edges qualify (a triangle at a quad's corner). -1 if none. */
+static int strip_edge(const int a[3], const int b[3], int si)
+{
+	const int n = RELIEF_BLOCK_CELLS;
+	int edge = -1, most = 0;
+	for (int k = 0; k < 4; k++) { /* west, north, east, south */
+		int on = 0, ring = 0;
+		for (int j = 0; j < 3; j++) {
+			const int d = k == 0 ? a[j] : k == 1 ? b[j] : k == 2 ? n - a[j] : n - b[j];
+			on += d == 0;
+			ring += d == si;
+		}
+		if (on + ring == 3 && on && ring && on > most) {
+			edge = k;
+			most = on;
+		}
+	}
+	return edge;
+}
+
+enum relief_mesh_kind relief_mesh_kind(const struct relief_mesh_vertex *c, const struct relief_mesh_quad *q)
+{
+	if (regular_side(c))
+		return RELIEF_MESH_REGULAR;
+	const int n = RELIEF_BLOCK_CELLS;
+	if (!q || q->cells < (uint32_t)n || q->cells % n)
+		return RELIEF_MESH_UNKNOWN;
+	const int64_t scale = q->cells / n;
+	int a[3], b[3];
+	for (int j = 0; j < 3; j++) {
+		const int64_t dx = c[j].col - q->col, dy = c[j].row - q->row;
+		if (dx % scale || dy % scale || dx < 0 || dy < 0 || dx / scale > n || dy / scale > n)
+			return RELIEF_MESH_UNKNOWN;
+		a[j] = (int)(dx / scale);
+		b[j] = (int)(dy / scale);
+	}
+	const int inner = q->inner < 2 ? 2 : q->inner;
+	if (inner > n || n % inner)
+		return RELIEF_MESH_UNKNOWN;
+	const int si = n / inner, k = strip_edge(a, b, si);
+	if (k < 0)
+		return RELIEF_MESH_OTHER;
+	if (!q->outer[k] || q->outer[k] > n || n % q->outer[k])
+		return RELIEF_MESH_UNKNOWN;
+	const int so = n / q->outer[k];
+	if (so == si)
+		return RELIEF_MESH_OTHER; /* equal factors along this edge, yet not a regular triangle */
+	/* within one column of the strip: along the edge, between two multiples of the coarser
+	 * of the edge's segments and the interior's cells */
+	const int *along = k == 0 || k == 2 ? b : a, col = so > si ? so : si;
+	int lo = along[0], hi = along[0];
+	for (int j = 1; j < 3; j++) {
+		lo = along[j] < lo ? along[j] : lo;
+		hi = along[j] > hi ? along[j] : hi;
+	}
+	if (hi > (lo / col + 1) * col)
+		return RELIEF_MESH_OTHER;
+	return so > si ? RELIEF_MESH_COARSE_EDGE : inner == 2 ? RELIEF_MESH_FAN : RELIEF_MESH_FINE_EDGE;
+}
+
 void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest, uint32_t w,
-                       uint32_t h, const struct relief_mesh_vertex *tri, uint64_t n, struct relief_mesh_error *out)
+                       uint32_t h, const struct relief_mesh_vertex *tri, const struct relief_mesh_quad *quads,
+                       uint64_t n, struct relief_mesh_error *out)
 {
 	memset(out, 0, sizeof(*out));
 	if (w < 2 || h < 2)
@@ -167,7 +234,9 @@ void relief_mesh_error(const struct relief_file *f, const struct relief_view *v,
 		p.tri = c;
 		p.cell = regular_side(c);
 		p.transition = p.cell == 0;
+		p.kind = quads ? relief_mesh_kind(c, &quads[t]) : RELIEF_MESH_UNKNOWN;
 		out->transition += p.transition;
+		out->kind_triangles[p.kind]++;
 		measure_triangle(&p);
 	}
 }

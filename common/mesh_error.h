@@ -22,6 +22,43 @@ struct relief_mesh_vertex {
 	uint32_t patch;
 };
 
+/* The tessellation quad (a block, RELIEF_BLOCK_CELLS patch cells a side) a triangle was
+ * drawn in: its corner sample of least column and row, its side in finest cells, and its
+ * factors as drawn: segments of its west, north, east and south edges (the first and last
+ * column and row) and of its interior (an inner factor of 1 is drawn as 2 unless every
+ * edge has 1 segment). */
+struct relief_mesh_quad {
+	int64_t col, row;
+	uint32_t cells;
+	uint8_t outer[4], inner;
+};
+
+/* What a triangle is to the level of detail (relief_mesh_error(), with its quad):
+ * - REGULAR: half of a square of side 2^k finest cells with corners on multiples of 2^k,
+ *   a triangle of some level's own triangulation (the block errors bound it);
+ * and the tessellator's transition triangles, in the strip along one edge of a quad whose
+ * factor differs from the interior's, between the edge's segments and the inner ring:
+ * - COARSE_EDGE: the edge's segments are longer than the interior's cells (the interior
+ *   is finer);
+ * - FINE_EDGE: they are shorter (the interior is coarser, with an inner ring);
+ * - FAN: they are shorter and the interior is its centre alone (inner factor 2);
+ * - OTHER: a transition triangle that is none of these: not within one strip, or not
+ *   within one column of the strip as wide as the coarser of its edge's segments and its
+ *   interior's cells (docs/lod.md, "Transition triangles");
+ * - UNKNOWN: no quad given, or vertices off the quad's samples. */
+enum relief_mesh_kind {
+	RELIEF_MESH_REGULAR,
+	RELIEF_MESH_COARSE_EDGE,
+	RELIEF_MESH_FINE_EDGE,
+	RELIEF_MESH_FAN,
+	RELIEF_MESH_OTHER,
+	RELIEF_MESH_UNKNOWN,
+	RELIEF_MESH_KINDS
+};
+
+/* The kind of triangle c (3 vertices) drawn in quad q (see enum relief_mesh_kind). */
+enum relief_mesh_kind relief_mesh_kind(const struct relief_mesh_vertex *c, const struct relief_mesh_quad *q);
+
 struct relief_mesh_error {
 	/* The largest projected vertical error (pixels) against the finest surface with the
 	 * nearer of each finest cell's two triangulations at the point, the reference of the
@@ -39,13 +76,19 @@ struct relief_mesh_error {
 	 * resolution against the worse diagonal (block errors bound them so) */
 	uint64_t transition;
 	double max_px_transition, max_px_regular_worse;
+	/* Triangles of each kind (not vertical, like `transition`: in the frustum or not) and
+	 * their largest error (pixels, nearer diagonal); every triangle is UNKNOWN when no
+	 * quads are given */
+	uint64_t kind_triangles[RELIEF_MESH_KINDS];
+	double kind_max_px[RELIEF_MESH_KINDS];
 	uint64_t triangles; /* triangles measured: not vertical, some point in the frustum */
 	uint64_t vertical;  /* vertical triangles left out (terrain-edge curtains, skirts) */
 	uint64_t points;    /* points evaluated in the frustum */
 };
 
-/* Measures n triangles (3 n vertices) drawn for view v against the finest decoded surface
- * (`finest`, w x h heights in metres at the file's finest samples, NaN for no-data). The
+/* Measures n triangles (3 n vertices; `quads`, the quad of each, may be NULL) drawn for
+ * view v against the finest decoded surface (`finest`, w x h heights in metres at the
+ * file's finest samples, NaN for no-data). The
  * difference of the flat triangle and the finest surface (either diagonal in each cell)
  * is linear between the points where the triangle's edges cross the finest grid's lines
  * and diagonals, the grid's samples and cells' centres inside it, and its corners, so its
@@ -55,4 +98,5 @@ struct relief_mesh_error {
  * varies with the depth, by at most the relative change of depth across a finest cell, so
  * the maximum stated may be short of the true one by that fraction. */
 void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest, uint32_t w,
-                       uint32_t h, const struct relief_mesh_vertex *tri, uint64_t n, struct relief_mesh_error *out);
+                       uint32_t h, const struct relief_mesh_vertex *tri, const struct relief_mesh_quad *quads,
+                       uint64_t n, struct relief_mesh_error *out);

@@ -12,18 +12,22 @@ layout(location = 3) flat in int in_layer[];
 layout(location = 7) flat in ivec2 in_grid[];
 layout(location = 8) flat in float in_height[];
 layout(location = 9) flat in uint in_id[];
+layout(location = 10) flat in uvec4 in_quad[];
 layout(location = 1) flat out float out_q2;
 layout(location = 2) out vec2 out_s;
 layout(location = 3) flat out int out_layer;
-// Binding 23 (terrain_internal.h): triangles drawn, capacity, then 3 vertices per
-// triangle: grid column, row (relative to the camera's cell), height bits, patch id.
+// Binding 23 (terrain_internal.h): triangles drawn, capacity, then 4 records per
+// triangle: its 3 vertices (grid column, row relative to the camera's cell, height bits,
+// patch id) and its quad (terrain_tese.glsl's out_quad: factors, where the quad is).
 layout(std430, binding = 23) buffer Mesh { uint mesh_count; uint mesh_cap; uint mesh_pad[2]; uvec4 mesh[]; };
 void main()
 {
 	uint k = atomicAdd(mesh_count, 1u);
+	if (k < mesh_cap)
+		mesh[4u * k + 3u] = in_quad[0];
 	for (int i = 0; i < 3; i++) {
 		if (k < mesh_cap)
-			mesh[3u * k + uint(i)] = uvec4(uvec2(in_grid[i]), floatBitsToUint(in_height[i]), in_id[i]);
+			mesh[4u * k + uint(i)] = uvec4(uvec2(in_grid[i]), floatBitsToUint(in_height[i]), in_id[i]);
 		gl_Position = gl_in[i].gl_Position;
 		out_q2 = in_q2[i];
 		out_s = in_s[i];

@@ -29,6 +29,10 @@ precise gl_Position; // shared border vertices get identical bits in both patche
 layout(location = 7) flat out ivec2 out_grid;
 layout(location = 8) flat out float out_height;
 layout(location = 9) flat out uint out_id;
+// And its quad's (relief_mesh_quad): outer factors (a byte each: west, north, east,
+// south), inner factor | log2(finest samples per patch sample) << 8, and the finest-grid
+// index of the quad's first corner, relative to the camera's cell.
+layout(location = 10) flat out uvec4 out_quad;
 #endif
 
 // Height of sample si of a quad whose corners are samples lo (0, 0) and hi (1, 1) at its
@@ -107,5 +111,7 @@ void main()
 	out_grid = it.base + si * it.scale;
 	out_height = down > 0.0 ? h - down * it.skirt : h;
 	out_id = it.id;
+	out_quad = uvec4(in_factors.x, (in_factors.y & 0xffu) | uint(findMSB(it.scale)) << 8u,
+	                 uvec2(it.base + ivec2(in_s[0] + 0.5) * it.scale));
 #endif
 }

@@ -35,7 +35,13 @@
  * tessellator's transition triangles, which no block error bounds) and
  * max_err_mesh_regular_worse_px (the triangles of a block level's own triangulation above
  * full resolution, against the worse diagonal: what the block errors bound);
- * transition_triangles per frame. Absent where not measured.
+ * transition_triangles per frame; the transition triangles by kind (relief_mesh_kind()):
+ * max_err_mesh_coarse_edge_px (strips along an edge coarser than the interior),
+ * max_err_mesh_fine_edge_px (finer than the interior), max_err_mesh_fan_px (finer than an
+ * interior that is its centre alone), and other_triangles, those of no kind over all
+ * frames (0 for relief and chunked LOD wherever the tessellator builds its transition
+ * strips as docs/lod.md describes; the distance baseline's factors are not powers of two,
+ * and its transitions are of no kind). Absent where not measured.
  * Popping: what the change of level of detail alone does between consecutive frames (each
  * key pose and the frame after it, 1/60 s later at 250 m/s): the second frame's camera
  * draws once with its own LOD and once with the first frame's LOD (frozen, see
@@ -105,10 +111,13 @@ struct result {
 	/* Triangle by triangle (relief_mesh_error(), over the analysed run's frames): the
 	 * largest error, that of transition triangles, that of regular triangles above full
 	 * resolution against the worse diagonal; transition triangles per frame; -1 where not
-	 * measured (no capture on this device, or a frame drew more than MESH_CAP triangles) */
+	 * measured (no capture on this device, or a frame drew more than MESH_CAP triangles);
+	 * the largest error of the kinds COARSE_EDGE, FINE_EDGE and FAN, and the triangles of
+	 * kind OTHER or UNKNOWN over all frames */
 	double mesh_max, mesh_transition, mesh_regular_worse, transitions;
+	double mesh_kind[3], mesh_other;
 };
-/* Triangles one frame's mesh capture holds (48 bytes each on the device, 72 on the CPU). */
+/* Triangles one frame's mesh capture holds (64 bytes each on the device, 96 on the CPU). */
 #define MESH_CAP (1u << 22)
 
 /* The full-resolution render's own error at a pixel is 0.01 px or less at 99.9 % of pixels;
@@ -123,6 +132,7 @@ struct run {
 	struct relief_view *views;
 	/* the mesh capture's triangles (MESH_CAP), or NULL when the device has no capture */
 	struct relief_mesh_vertex *mesh;
+	struct relief_mesh_quad *mesh_quads;
 	/* three times the frame's width and height, for rechecks; recheck_all: every pixel */
 	struct relief_vk_target fine;
 	bool recheck_all;
@@ -241,6 +251,7 @@ static int recheck(struct run *r, const struct config *c, struct relief_terrain_
 static void mesh_unmeasured(struct result *res)
 {
 	res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
+	res->mesh_kind[0] = res->mesh_kind[1] = res->mesh_kind[2] = res->mesh_other = -1;
 }
 
 /* Frame i of the analysed run drawn again (untimed; selecting again for the same camera
@@ -256,7 +267,7 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 	int ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st);
 	if (ret < 0)
 		return ret;
-	int64_t n = relief_terrain_view_mesh(tv, r->mesh, MESH_CAP);
+	int64_t n = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
 	if (n < 0)
 		return (int)n;
 	if (n > MESH_CAP || res->mesh_max < 0) {
@@ -264,11 +275,14 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 		return 0;
 	}
 	struct relief_mesh_error e;
-	relief_mesh_error(r->f, v, r->finest, r->fw, r->fh, r->mesh, (uint64_t)n, &e);
+	relief_mesh_error(r->f, v, r->finest, r->fw, r->fh, r->mesh, r->mesh_quads, (uint64_t)n, &e);
 	res->mesh_max = fmax(res->mesh_max, e.max_px);
 	res->mesh_transition = fmax(res->mesh_transition, e.max_px_transition);
 	res->mesh_regular_worse = fmax(res->mesh_regular_worse, e.max_px_regular_worse);
 	res->transitions += (double)e.transition / (2.0 * r->frames);
+	for (int k = 0; k < 3; k++)
+		res->mesh_kind[k] = fmax(res->mesh_kind[k], e.kind_max_px[RELIEF_MESH_COARSE_EDGE + k]);
+	res->mesh_other += (double)(e.kind_triangles[RELIEF_MESH_OTHER] + e.kind_triangles[RELIEF_MESH_UNKNOWN]);
 	return 0;
 }
 
@@ -575,7 +589,8 @@ int bench_lod(int argc, char **argv)
 		}
 	}
 	flight(f, frames, w, h, r.views);
-	if (r.gpu.vk->has.mesh_capture && !(r.mesh = malloc(sizeof(*r.mesh) * 3 * (size_t)MESH_CAP))) {
+	if (r.gpu.vk->has.mesh_capture && (!(r.mesh = malloc(sizeof(*r.mesh) * 3 * (size_t)MESH_CAP)) ||
+	                                   !(r.mesh_quads = malloc(sizeof(*r.mesh_quads) * (size_t)MESH_CAP)))) {
 		fprintf(stderr, "relief bench lod: out of memory\n");
 		goto out;
 	}
@@ -671,6 +686,10 @@ int bench_lod(int argc, char **argv)
 				printf(",\"max_err_mesh_px\":%.4f,\"max_err_mesh_transition_px\":%.4f,"
 				       "\"max_err_mesh_regular_worse_px\":%.4f,\"transition_triangles\":%.1f",
 				       res[i].mesh_max, res[i].mesh_transition, res[i].mesh_regular_worse, res[i].transitions);
+			if (res[i].mesh_max >= 0)
+				printf(",\"max_err_mesh_coarse_edge_px\":%.4f,\"max_err_mesh_fine_edge_px\":%.4f,"
+				       "\"max_err_mesh_fan_px\":%.4f,\"other_triangles\":%.0f",
+				       res[i].mesh_kind[0], res[i].mesh_kind[1], res[i].mesh_kind[2], res[i].mesh_other);
 			bench_json_machine(r.gpu.vk->props.deviceName);
 		} else {
 			char m3[16] = "-", mm[16] = "-";
@@ -693,6 +712,7 @@ out:
 	tool_renderer_finish(&r.gpu);
 	free(finest);
 	free(r.mesh);
+	free(r.mesh_quads);
 	free(r.views);
 	free(r.ref_err);
 	free(r.ref_rgba);

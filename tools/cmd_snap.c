@@ -66,20 +66,23 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 	uint32_t cap = triangles > 0 && triangles < (1u << 26) ? (uint32_t)triangles + 1024 : 1u << 22;
 	float *finest = malloc(sizeof(float) * fw * fh);
 	struct relief_mesh_vertex *tri = NULL;
+	struct relief_mesh_quad *quads = NULL;
 	int64_t n = 0;
 	int ret = finest ? relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL) : -ENOMEM;
 	for (int pass = 0; ret >= 0 && pass < 2; pass++) { /* again with room for all if they did not fit */
 		const struct relief_draw_options dopt = { .mesh = true };
 		struct relief_terrain_stats st;
 		free(tri);
+		free(quads);
 		tri = malloc(sizeof(*tri) * 3 * (size_t)cap);
-		if (!tri) {
+		quads = malloc(sizeof(*quads) * (size_t)cap);
+		if (!tri || !quads) {
 			ret = -ENOMEM;
 			break;
 		}
 		if ((ret = relief_terrain_view_mesh_enable(tv, cap)) < 0 ||
 		    (ret = relief_terrain_draw(g->terrain, tv, view, &g->target, frame + pass, &dopt, &st)) < 0 ||
-		    (n = relief_terrain_view_mesh(tv, tri, cap)) < 0)
+		    (n = relief_terrain_view_mesh(tv, tri, quads, cap)) < 0)
 			break;
 		if (n <= cap)
 			break;
@@ -93,15 +96,21 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 		fprintf(stderr, "relief snap: --exact: %s\n", strerror(-ret));
 	} else {
 		struct relief_mesh_error e;
-		relief_mesh_error(f, view, finest, fw, fh, tri, (uint64_t)n, &e);
+		relief_mesh_error(f, view, finest, fw, fh, tri, quads, (uint64_t)n, &e);
 		printf("relief snap: exact: %lld triangles (%llu transition, %llu vertical) measured at %llu points: "
 		       "max %.3f px (%.2f m) at (%.1f, %.1f, %.1f), patch %u; regular triangles %.3f px against either "
-		       "diagonal, transition triangles %.3f px\n",
+		       "diagonal, transition triangles %.3f px: along coarser edges %.3f px (%llu), finer edges %.3f px "
+		       "(%llu), fans %.3f px (%llu), other %llu\n",
 		       (long long)n, (unsigned long long)e.transition, (unsigned long long)e.vertical,
 		       (unsigned long long)e.points, e.max_px, e.max_m, e.worst.x, e.worst.y, e.worst.z, e.worst_tri[0].patch,
-		       e.max_px_regular_worse, e.max_px_transition);
+		       e.max_px_regular_worse, e.max_px_transition, e.kind_max_px[RELIEF_MESH_COARSE_EDGE],
+		       (unsigned long long)e.kind_triangles[RELIEF_MESH_COARSE_EDGE], e.kind_max_px[RELIEF_MESH_FINE_EDGE],
+		       (unsigned long long)e.kind_triangles[RELIEF_MESH_FINE_EDGE], e.kind_max_px[RELIEF_MESH_FAN],
+		       (unsigned long long)e.kind_triangles[RELIEF_MESH_FAN],
+		       (unsigned long long)(e.kind_triangles[RELIEF_MESH_OTHER] + e.kind_triangles[RELIEF_MESH_UNKNOWN]));
 	}
 	free(tri);
+	free(quads);
 	free(finest);
 	return ret;
 }

@@ -117,10 +117,12 @@ int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint
  * store to buffers (vk->has.mesh_capture), -EBUSY while a frame is in flight. */
 int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_triangles);
 /* The triangles of the view's last frame drawn with relief_draw_options.mesh (3 vertices
- * each, in drawing order), up to cap of them: returns the number that frame drew, which may
- * be more than cap or than the room enabled (only those that fit were kept); -ENODATA if no
- * such frame was drawn since the capture was enabled, -EBUSY while a frame is in flight. */
-int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out, uint32_t cap);
+ * each in `out`, in drawing order, and, unless `quads` is NULL, the quad each was drawn in),
+ * up to cap of them: returns the number that frame drew, which may be more than cap or
+ * than the room enabled (only those that fit were kept); -ENODATA if no such frame was
+ * drawn since the capture was enabled, -EBUSY while a frame is in flight. */
+int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out,
+                                 struct relief_mesh_quad *quads, uint32_t cap);
 /* The last frame's requests (patch ids, unordered; at most the frame's cap), for tests;
  * returns the count (0 while the view has a frame in flight). */
 uint32_t relief_terrain_view_wants(const struct relief_terrain_view *v, uint32_t *ids, uint32_t cap);

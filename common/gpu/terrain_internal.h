@@ -192,8 +192,10 @@ struct relief_terrain_view {
 	bool gpu_cull; /* the GPU decided whether back faces were culled (lod_commands.comp) */
 };
 
-/* The mesh capture's header in its buffer (terrain_mesh.geom), then 3 vertices (uvec4 each:
- * grid column and row relative to the camera's cell, height bits, patch id) a triangle. */
+/* The mesh capture's header in its buffer (terrain_mesh.geom), then 4 uvec4 a triangle: 3
+ * vertices (grid column and row relative to the camera's cell, height bits, patch id) and
+ * its quad (outer factors a byte each, inner factor | log2 of the patch's scale << 8, the
+ * grid column and row of its first corner relative to the camera's cell). */
 struct mesh_header {
 	uint32_t count, cap, pad[2];
 };

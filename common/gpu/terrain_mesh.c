@@ -15,13 +15,13 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
 		return -ENOTSUP;
 	if (v->pending)
 		return -EBUSY;
-	if (max_triangles == 0 || max_triangles > (UINT32_MAX - 1) / 3)
+	if (max_triangles == 0 || max_triangles > UINT32_MAX / 4) /* the shader's index 4 k + 3 */
 		return -EINVAL;
 	int ret = terrain_mesh_pipelines_create(t);
 	if (ret < 0)
 		return ret;
 	struct relief_vk_buffer b = { 0 };
-	const VkDeviceSize size = sizeof(struct mesh_header) + 48 * (VkDeviceSize)max_triangles;
+	const VkDeviceSize size = sizeof(struct mesh_header) + 64 * (VkDeviceSize)max_triangles;
 	if ((ret = relief_vk_buffer_init(vk, &b, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
 	                                 RELIEF_VK_MEMORY_READBACK)) < 0)
 		return ret;
@@ -72,7 +72,8 @@ void mesh_frame_end(VkCommandBuffer cmd)
 	        VK_ACCESS_HOST_READ_BIT);
 }
 
-int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out, uint32_t cap)
+int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out,
+                                 struct relief_mesh_quad *quads, uint32_t cap)
 {
 	if (v->pending)
 		return -EBUSY;
@@ -82,15 +83,29 @@ int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct rel
 	const uint32_t (*in)[4] = (const void *)(hd + 1);
 	uint32_t kept = hd->count < v->mesh_cap ? hd->count : v->mesh_cap;
 	kept = kept < cap ? kept : cap;
-	for (uint64_t i = 0; i < 3 * (uint64_t)kept; i++) {
-		float height;
-		memcpy(&height, &in[i][2], sizeof(height));
-		out[i] = (struct relief_mesh_vertex){
-			.col = v->mesh_cell[0] + (int32_t)in[i][0],
-			.row = v->mesh_cell[1] + (int32_t)in[i][1],
-			.height = height,
-			.patch = in[i][3],
+	for (uint64_t t = 0; t < kept; t++) {
+		const uint32_t(*r)[4] = in + 4 * t;
+		for (int k = 0; k < 3; k++) {
+			float height;
+			memcpy(&height, &r[k][2], sizeof(height));
+			out[3 * t + k] = (struct relief_mesh_vertex){
+				.col = v->mesh_cell[0] + (int32_t)r[k][0],
+				.row = v->mesh_cell[1] + (int32_t)r[k][1],
+				.height = height,
+				.patch = r[k][3],
+			};
+		}
+		if (!quads)
+			continue;
+		struct relief_mesh_quad *q = &quads[t];
+		*q = (struct relief_mesh_quad){
+			.col = v->mesh_cell[0] + (int32_t)r[3][2],
+			.row = v->mesh_cell[1] + (int32_t)r[3][3],
+			.cells = RELIEF_BLOCK_CELLS << (r[3][1] >> 8 & 31),
+			.inner = (uint8_t)r[3][1],
 		};
+		for (int k = 0; k < 4; k++)
+			q->outer[k] = (uint8_t)(r[3][0] >> (8 * k));
 	}
 	return hd->count;
 }

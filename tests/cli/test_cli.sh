@@ -225,6 +225,7 @@ expect_text snap-summary "patches in"
 vkcheck snap-exact 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/exact.png" --exact --validation
 expect_text snap-exact-line "relief snap: exact: "
 expect_text snap-exact-regular "regular triangles "
+expect_text snap-exact-kinds ", other 0"
 vkcheck snap-nan 2 "$relief" snap "$tmp/ps.relief" --camera nan,0,100 --look 1,1,0 -o "$tmp/x.png"
 expect_text snap-nan-named "--camera"
 vkcheck snap-zero-size 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --size 0x10 -o "$tmp/x.png"
@@ -345,6 +346,13 @@ expect_text bench-lod-cpu '","cpu":"'
 # draws the finest surface itself, has a measured error, and the full grid's is 0.
 expect_text bench-lod-mesh '"max_err_mesh_px":'
 expect_text bench-lod-mesh-full-grid '"max_err_mesh_px":0.0000,'
+# Transition triangles by kind, and, with relief's and chunked LOD's power-of-two factors,
+# none of another kind: every one lies in a column of an edge's strip (docs/lod.md,
+# "Transition triangles: what would bound them"). The distance baseline's factors are not
+# powers of two: its transitions are of no kind.
+expect_text bench-lod-mesh-kinds '"max_err_mesh_coarse_edge_px":'
+m=$(grep -E '"method":"(relief|chunked)"' <<<"$LAST_OUT" | grep -c '"other_triangles":0,')
+[ "$m" -eq 2 ] || { echo "FAIL bench lod other triangles: $m of relief and chunked have none"; fails=$((fails + 1)); }
 # --unculled: relief and chunked also drawn without block culling, in turn with the rest;
 # culling draws no more triangles and changes no error (the picture is the same).
 vkcheck bench-lod-unculled 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \

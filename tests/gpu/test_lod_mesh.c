@@ -24,7 +24,7 @@ enum { MESH_CAP = 1u << 20 };
 #define TRANSITION_GUARD 1.5
 
 /* Renders v (converged) with the capture on, checks that every triangle the clipper saw was
- * captured, and measures them. */
+ * captured, and measures them with their quads (so by kind). */
 static uint64_t mesh_measure(struct bound_scene *b, struct relief_view *v, const struct relief_draw_options *opts,
                              struct relief_mesh_vertex *tri, struct relief_mesh_error *e)
 {
@@ -32,11 +32,14 @@ static uint64_t mesh_measure(struct bound_scene *b, struct relief_view *v, const
 	struct relief_draw_options o = opts ? *opts : (struct relief_draw_options){ .fine = RELIEF_FINE_ERRORS };
 	o.mesh = true;
 	render_with(&b->s, v, &o, b->lod, &st);
-	int64_t n = relief_terrain_view_mesh(b->s.view, tri, MESH_CAP);
+	struct relief_mesh_quad *quads = malloc(sizeof(*quads) * (size_t)MESH_CAP);
+	assert_non_null(quads);
+	int64_t n = relief_terrain_view_mesh(b->s.view, tri, quads, MESH_CAP);
 	assert_true(n > 0 && n <= MESH_CAP);
 	if (gpu_test_has_statistics(vk)) /* clipping invocations: the geometry shader's triangles */
 		assert_int_equal((uint64_t)n, st.triangles);
-	relief_mesh_error(b->s.f, v, b->finest, b->fw, b->fh, tri, (uint64_t)n, e);
+	relief_mesh_error(b->s.f, v, b->finest, b->fw, b->fh, tri, quads, (uint64_t)n, e);
+	free(quads);
 	return (uint64_t)n;
 }
 
@@ -44,10 +47,15 @@ static void print_mesh_error(const char *what, size_t pose, double tau, bool mor
                              const struct relief_mesh_error *e)
 {
 	print_message("%s pose %zu tau %g%s: %llu triangles (%llu vertical, %llu transition), %llu points: max %.3f px "
-	              "(%.2f m), regular %.3f px against either diagonal, transition %.3f px\n",
+	              "(%.2f m), regular %.3f px against either diagonal, transition %.3f px (coarse edge %llu %.3f, "
+	              "fine edge %llu %.3f, fan %llu %.3f)\n",
 	              what, pose, tau, morph ? " morphed" : "", (unsigned long long)n, (unsigned long long)e->vertical,
 	              (unsigned long long)e->transition, (unsigned long long)e->points, e->max_px, e->max_m,
-	              e->max_px_regular_worse, e->max_px_transition);
+	              e->max_px_regular_worse, e->max_px_transition,
+	              (unsigned long long)e->kind_triangles[RELIEF_MESH_COARSE_EDGE],
+	              e->kind_max_px[RELIEF_MESH_COARSE_EDGE], (unsigned long long)e->kind_triangles[RELIEF_MESH_FINE_EDGE],
+	              e->kind_max_px[RELIEF_MESH_FINE_EDGE], (unsigned long long)e->kind_triangles[RELIEF_MESH_FAN],
+	              e->kind_max_px[RELIEF_MESH_FAN]);
 }
 
 /* Each pose at each of `taus`, without and with morphing: regular triangles within tau
@@ -72,6 +80,14 @@ static void mesh_within_tau(struct bound_scene *b, const char *what, const struc
 				assert_true(e.max_px_regular_worse <= v.tau);
 			assert_true(e.max_px_regular_worse <= TRANSITION_GUARD * v.tau);
 			assert_true(e.max_px_transition <= TRANSITION_GUARD * v.tau);
+			/* The tessellator's structure that docs/lod.md ("Transition triangles")
+			 * relies on: every triangle of a quad is regular or lies in one column of
+			 * one edge's strip, its corners on the edge's samples and the inner ring. */
+			assert_int_equal(e.kind_triangles[RELIEF_MESH_OTHER], 0);
+			assert_int_equal(e.kind_triangles[RELIEF_MESH_UNKNOWN], 0);
+			assert_int_equal(e.kind_triangles[RELIEF_MESH_COARSE_EDGE] + e.kind_triangles[RELIEF_MESH_FINE_EDGE] +
+			                         e.kind_triangles[RELIEF_MESH_FAN],
+			                 e.transition);
 		}
 	}
 	free(tri);
@@ -164,7 +180,7 @@ static void test_mesh_capture_and_measure(void **state)
 	assert_int_equal(relief_terrain_view_create(b.s.terrain, &other), 0);
 	const struct relief_draw_options mesh = { .fine = RELIEF_FINE_ERRORS, .mesh = true };
 	assert_int_equal(relief_terrain_draw(b.s.terrain, other, &v, &b.s.target, 200, &mesh, &st), -EINVAL);
-	assert_int_equal(relief_terrain_view_mesh(other, tri, MESH_CAP), -ENODATA);
+	assert_int_equal(relief_terrain_view_mesh(other, tri, NULL, MESH_CAP), -ENODATA);
 	relief_terrain_view_destroy(other);
 
 	/* The same frame measured against tau = 1 after being drawn for tau = 8. */
@@ -179,7 +195,7 @@ static void test_mesh_capture_and_measure(void **state)
 	n = mesh_measure(&b, &v, NULL, tri, &base);
 	for (uint64_t k = 0; k < 3 * n; k++)
 		tri[k].height += 50.0f;
-	relief_mesh_error(b.s.f, &v, b.finest, b.fw, b.fh, tri, n, &e);
+	relief_mesh_error(b.s.f, &v, b.finest, b.fw, b.fh, tri, NULL, n, &e);
 	print_message("every vertex raised by 50 m: max %.3f px (%.2f m), before %.3f px (%.2f m)\n", e.max_px, e.max_m,
 	              base.max_px, base.max_m);
 	assert_true(e.max_px > base.max_px + 0.1);

@@ -10,6 +10,7 @@
 
 #include <cmocka.h>
 
+#include "layout.h"
 #include "mesh_error.h"
 
 enum { N = 9 }; /* a 9 x 9 sample grid, 10 m apart, origin (0, 80): rows run south */
@@ -35,7 +36,7 @@ static void flat(float h)
 static struct relief_mesh_error measure(const struct relief_mesh_vertex *t, uint64_t n, const struct relief_view *v)
 {
 	struct relief_mesh_error e;
-	relief_mesh_error(&file, v, z, N, N, t, n, &e);
+	relief_mesh_error(&file, v, z, N, N, t, NULL, n, &e);
 	return e;
 }
 
@@ -108,6 +109,63 @@ static void test_regular_and_transition(void **state)
 	assert_int_equal(measure(strip, 1, &v).transition, 1);
 }
 
+/* Triangle t (corners in patch samples of quad q, scaled) with its kind. */
+static enum relief_mesh_kind kind_of(const struct relief_mesh_quad *q, const int t[3][2])
+{
+	const int64_t s = q->cells / RELIEF_BLOCK_CELLS;
+	struct relief_mesh_vertex c[3];
+	for (int k = 0; k < 3; k++)
+		c[k] = (struct relief_mesh_vertex){ q->col + s * t[k][0], q->row + s * t[k][1], 0, 1 };
+	return relief_mesh_kind(c, q);
+}
+
+/* Transition triangles told apart by the strip they lie in (docs/lod.md, "Transition
+ * triangles"), on a quad of 2 finest cells per patch cell at (32, 64). */
+static void test_kinds(void **state)
+{
+	/* west: 2 segments (8 samples), north 4 (4), east 16 (1), south 1 (16); inner 8 (2) */
+	const struct relief_mesh_quad q = { 32, 64, 32, { 2, 4, 16, 1 }, 8 };
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 0, 0 }, { 2, 0 }, { 2, 2 } }), RELIEF_MESH_REGULAR);
+	/* a west segment to the inner ring, within the segment's column, and beyond it */
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 0, 0 }, { 0, 8 }, { 2, 4 } }), RELIEF_MESH_COARSE_EDGE);
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 0, 0 }, { 0, 8 }, { 2, 10 } }), RELIEF_MESH_OTHER);
+	/* the south edge's one segment to the ring's far end: still its column */
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 0, 16 }, { 16, 16 }, { 14, 14 } }), RELIEF_MESH_COARSE_EDGE);
+	/* east: 1-sample segments against 2-sample cells, within one cell's column, or not */
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 16, 4 }, { 16, 5 }, { 14, 4 } }), RELIEF_MESH_FINE_EDGE);
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 16, 5 }, { 16, 6 }, { 14, 8 } }), RELIEF_MESH_OTHER);
+	/* not in any strip: a corner deeper than the ring */
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 0, 0 }, { 0, 8 }, { 4, 4 } }), RELIEF_MESH_OTHER);
+	/* at the north-west corner: two corners on the north edge make it the north strip's */
+	assert_int_equal(kind_of(&q, (const int[3][2]){ { 0, 0 }, { 4, 0 }, { 2, 2 } }), RELIEF_MESH_COARSE_EDGE);
+	/* a fan: the centre alone (inner factor 2, or 1, drawn as 2) to a north segment */
+	const struct relief_mesh_quad fan = { 32, 64, 32, { 1, 4, 2, 2 }, 1 };
+	assert_int_equal(kind_of(&fan, (const int[3][2]){ { 8, 8 }, { 0, 0 }, { 4, 0 } }), RELIEF_MESH_FAN);
+	assert_int_equal(kind_of(&fan, (const int[3][2]){ { 8, 8 }, { 0, 16 }, { 0, 0 } }), RELIEF_MESH_COARSE_EDGE);
+	/* equal factors along the edge, yet not regular: not a shape the tessellator makes */
+	const struct relief_mesh_quad even = { 32, 64, 32, { 4, 4, 4, 4 }, 4 };
+	assert_int_equal(kind_of(&even, (const int[3][2]){ { 0, 0 }, { 4, 0 }, { 8, 4 } }), RELIEF_MESH_OTHER);
+	/* off the quad's samples (an odd finest column at 2 per sample), or no quad */
+	struct relief_mesh_vertex off[3] = { { 33, 64, 0, 1 }, { 40, 64, 0, 1 }, { 36, 68, 0, 1 } };
+	assert_int_equal(relief_mesh_kind(off, &q), RELIEF_MESH_UNKNOWN);
+	off[0].col = 32;
+	assert_int_equal(relief_mesh_kind(off, NULL), RELIEF_MESH_UNKNOWN);
+	/* relief_mesh_error() counts and measures by kind */
+	struct relief_view v = view_down();
+	flat(0);
+	const struct relief_mesh_quad at0 = { 0, 0, 16, { 2, 4, 16, 1 }, 8 };
+	const struct relief_mesh_vertex t[3] = { { 0, 0, 3, 1 }, { 0, 8, 3, 1 }, { 2, 4, 3, 1 } };
+	struct relief_mesh_error e;
+	relief_mesh_error(&file, &v, z, N, N, t, &at0, 1, &e);
+	assert_int_equal(e.kind_triangles[RELIEF_MESH_COARSE_EDGE], 1);
+	assert_int_equal(e.transition, 1);
+	assert_true(e.kind_max_px[RELIEF_MESH_COARSE_EDGE] > 0);
+	assert_true(e.kind_max_px[RELIEF_MESH_COARSE_EDGE] == e.max_px_transition);
+	assert_true(e.kind_max_px[RELIEF_MESH_FINE_EDGE] == 0.0);
+	e = measure(t, 1, &v);
+	assert_int_equal(e.kind_triangles[RELIEF_MESH_UNKNOWN], 1);
+}
+
 /* No-data cells, vertical triangles and points outside the frustum are left out. */
 static void test_left_out(void **state)
 {
@@ -142,6 +200,7 @@ int main(void)
 		cmocka_unit_test(test_peak_inside_and_on_edge),
 		cmocka_unit_test(test_diagonals),
 		cmocka_unit_test(test_regular_and_transition),
+		cmocka_unit_test(test_kinds),
 		cmocka_unit_test(test_left_out),
 	};
 	return cmocka_run_group_tests(tests, setup, NULL);
