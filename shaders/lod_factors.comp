@@ -144,7 +144,8 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			if (!inner_edge[i])
 				continue;
 			ivec2 nb = bl + toward[i];
-			vec4 eps = max(e, block_eps(it, nb.x, nb.y));
+			vec4 eps = max(edge_eps_at(it.layer, bl, uint(i), e),
+			               edge_eps_at(it.layer, nb, uint(i + 2) % 4u, block_eps(it, nb.x, nb.y)));
 			vec2 rn = block_range_at(it.layer, nb), er = vec2(min(range.x, rn.x), max(range.y, rn.y));
 			float eh = check_height(er);
 			if (errors && eh == h) {

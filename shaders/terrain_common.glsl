@@ -58,31 +58,4 @@ struct PatchInfo {
 	float hmin, hmax, err, skirt;
 };
 
-const uint BLOCK_CELLS = 16u;
-
-// A layer's block record (binding 11; relief_patch_block_floats(), patch_cache.h):
-// blocks^2 x 4 errors, blocks^2 x 2 height ranges, then whether each block has a valid
-// sample, 16 blocks per float (an integer; bit j of float w: block 16 w + j).
-uint layer_record(int layer, uint blocks)
-{
-	return uint(layer) * (blocks * blocks * 6u + (blocks * blocks + 15u) / 16u);
-}
-
-// Index of block bl's first error and of its range's low end.
-uint block_eps_index(int layer, ivec2 bl, uint blocks)
-{
-	return layer_record(layer, blocks) + (uint(bl.y) * blocks + uint(bl.x)) * 4u;
-}
-
-uint block_range_index(int layer, ivec2 bl, uint blocks)
-{
-	return layer_record(layer, blocks) + blocks * blocks * 4u + (uint(bl.y) * blocks + uint(bl.x)) * 2u;
-}
-
-// Index of the float that holds block bl's bit, and the bit.
-uint block_data_index(int layer, ivec2 bl, uint blocks, out uint bit)
-{
-	uint b = uint(bl.y) * blocks + uint(bl.x);
-	bit = b % 16u;
-	return layer_record(layer, blocks) + blocks * blocks * 6u + b / 16u;
-}
+#include "block_record.glsl"

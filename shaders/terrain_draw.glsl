@@ -47,6 +47,7 @@ const uint MODE_MORPH = 32u; // the view geomorphs level changes (relief_view.mo
 const uint MODE_KEEP_EMPTY_BLOCKS = 64u; // tests: tessellate blocks without a valid sample too
 const uint MODE_SKIP_CLIPPED = 128u; // the culling pipeline's draw: the clipped list draws those quads
 const uint MODE_CLIPPED_LIST = 256u; // the clipped list's draw (back faces kept)
+const uint MODE_LOOSE_STRIPS = 512u; // transition strips unbounded (relief_view.loose_transitions, terrain_factors.glsl)
 
 // Camera-relative position of the patch's sample m (x east, y north, z up) at height h
 // metres. Integer finest-grid indices first, one rounding to float after: every patch that

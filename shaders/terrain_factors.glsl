@@ -16,7 +16,10 @@
 // say, 8 x 4-sample cells is a triangulation that no eps_d measures, and the benchmark
 // caught one exceeding tau): the level the block's own errors need at its sample nearest
 // the camera, its corners, edge middles and centre, but at most one level coarser than its
-// finest edge (interior_factor; the paper takes the smallest edge factor).
+// finest edge (interior_factor; the paper takes the smallest edge factor). The
+// tessellator's transition strips between an edge and an interior of other factors are
+// bounded from the patch's samples (edge_eps_at(), interior_factor(); docs/lod.md,
+// "Transition triangles: what bounds them") unless the view is loose.
 // Skirt quads remain only along the terrain's outer edge (a curtain): its block's factor
 // along the edge, 1 across.
 
@@ -34,6 +37,44 @@ vec4 block_eps_at(int layer, ivec2 bl)
 }
 
 vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec2(bx, by)); }
+
+// Transition strips (docs/lod.md, "Transition triangles: what bounds them"): where an
+// edge's factor differs from the interior's, the tessellator's triangles along it are
+// within eps_c + D of the finest surface, c the level of the column square they lie in and
+// D what patch_strips.comp computed from the samples. Edge `edge`: 0 west, 1 north, 2 east,
+// 3 south (the outer factors' order); side (0 north, 1 south, 2 west, 3 east) to edge:
+uint edge_of_side(uint side) { return side == 0u ? 1u : side == 1u ? 3u : side == 2u ? 0u : 2u; }
+
+// Whether the strips are bounded: unless the view asks otherwise (MODE_LOOSE_STRIPS).
+bool strips_bounded() { return (pc.mode & MODE_LOOSE_STRIPS) == 0u; }
+
+// The errors an edge of block bl at each level d = 1..4 must keep within tau: the block's
+// eps_d (non-decreasing, `eps`) plus the largest D of a strip along it against any finer
+// interior, whatever the interior turns out to be; made non-decreasing again.
+vec4 edge_eps_at(int layer, ivec2 bl, uint edge, vec4 eps)
+{
+	if (!strips_bounded())
+		return eps;
+	uint i = block_strip_index(layer, bl, edge, pc.blocks);
+	vec4 e = eps + vec4(block_err[i], block_err[i + 1u], block_err[i + 2u], block_err[i + 3u]);
+	e.y = max(e.x, e.y);
+	e.z = max(e.y, e.z);
+	e.w = max(e.z, e.w);
+	return e;
+}
+
+// D of a strip along edge `edge` of block bl at level d = 0..2 against an interior at d + 1
+// (a fan from the centre at d = 2).
+float strip_fine_at(int layer, ivec2 bl, uint edge, int d)
+{
+	return block_err[block_strip_index(layer, bl, edge, pc.blocks) + 4u + uint(d)];
+}
+
+// The three of a block's nine measuring points (3 x 3, raster order) on edge `edge`.
+ivec3 edge_points(uint edge)
+{
+	return edge == 0u ? ivec3(0, 3, 6) : edge == 1u ? ivec3(0, 1, 2) : edge == 2u ? ivec3(2, 5, 8) : ivec3(6, 7, 8);
+}
 
 // Block bl's height range (low, high; metres): every sample of the block lies in it, so the
 // block drawn at any level does.
@@ -188,7 +229,7 @@ void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout vec2 
 	if (ne == NO_ENTRY || layer_of[ne] < 0)
 		return;
 	ivec2 across = border_block(side ^ 1u, side >= 2u ? bl.y : bl.x); // its block facing bl
-	eps = max(eps, block_eps_at(layer_of[ne], across));
+	eps = max(eps, edge_eps_at(layer_of[ne], across, edge_of_side(side ^ 1u), block_eps_at(layer_of[ne], across)));
 	vec2 r = block_range_at(layer_of[ne], across);
 	range = vec2(min(range.x, r.x), max(range.y, r.y));
 }
@@ -217,9 +258,8 @@ vec4 nearest_point(Instance it, vec2 lo, float h)
 // edge has a single segment: the raised interior then makes long transition triangles from
 // that segment to its inner ring, and on the 48-pair flight one such block was 255 m off,
 // 2.65 px at tau = 2 (eighth December session; 1.84 px without the rule). With that limit
-// the rule costs 0-4.5 % more triangles. (A centre alone against edges of 2 and 1 segments,
-// inner factor 1 rounded up to 2 by the tessellator, and the fan kept next to a single
-// segment, remain: they are not measured either.)
+// the rule costs 0-4.5 % more triangles. Every strip (and fan) left is bounded since
+// December 2026: the interior's strips below, the edges' in edge_eps_at().
 float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges, out uint morph)
 {
 	// Levels coarser than the limit are not tried: the search starts there, and each level
@@ -239,6 +279,25 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 			pass = seg_pixels(pt[k], e) <= pc.tau;
 		if (pass)
 			break;
+	}
+	// One level coarser than the finest edge makes a fine-edge strip (or a fan) along each
+	// edge at that level: kept only where eps_d plus its D projects within tau at the
+	// edge's points and the block's centre, else the interior takes the finest edge's level, which leaves strips
+	// along coarser edges only, which their edges' own levels bound (edge_eps_at()). A
+	// level-4 interior (factor 1, drawn as the centre alone) is no coarser than it looks
+	// against edges of 2 segments.
+	int finest = findMSB(int(BLOCK_CELLS) / int(finest_edge));
+	if (d == finest + 1 && finest <= 2 && strips_bounded()) {
+		ivec2 bl = ivec2(lo) / int(BLOCK_CELLS);
+		for (uint k = 0u; k < 4u && d > finest; k++) {
+			if (edges[k] != finest_edge)
+				continue;
+			float e = eps[d - 1] + strip_fine_at(it.layer, bl, k, finest);
+			ivec3 q = edge_points(k);
+			float px = max(max(seg_pixels(pt[q.x], e), seg_pixels(pt[q.y], e)), seg_pixels(pt[q.z], e));
+			if (max(px, seg_pixels(pt[4], e)) > pc.tau) // a fan reaches the centre
+				d = finest;
+		}
 	}
 	// An interior of factor 1 against a finer edge is drawn by the tessellator as its
 	// centre alone (inner factor 1 rounds up to 2): with morphing that centre takes the
@@ -269,7 +328,7 @@ void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 // The factor of border block bl's edge on `side` of patch `it`, as `it` draws it.
 float border_edge_factor(Instance it, ivec2 bl, uint side, out uint morph)
 {
-	vec4 eps = block_eps(it, bl.x, bl.y);
+	vec4 eps = edge_eps_at(it.layer, bl, edge_of_side(side), block_eps(it, bl.x, bl.y));
 	vec2 range = block_range_at(it.layer, bl);
 	border_errors(it, bl, side, eps, range);
 	vec2 a, b;

@@ -5,7 +5,8 @@
  *               (Cantlay / Sascha Willems style, no error metric), target_px per triangle;
  *   chunked     the same quadtree selection with tau, patches at full resolution
  *               (no fine tessellation LOD).
- * On request, relief again with views that geomorph (--morphed, relief-morphed) and relief
+ * On request, relief again with views that geomorph (--morphed, relief-morphed), with the
+ * transition strips unbounded (--loose, relief-loose: what bounding them costs) and relief
  * and chunked without block culling (--unculled).
  * The cache is warm (every patch resident), so frames measure LOD, not streaming.
  *
@@ -95,6 +96,7 @@ struct config {
 	struct relief_draw_options opts;
 	bool reference; /* the full-resolution render: fills run.ref_err */
 	bool morph;     /* the views geomorph (relief_view.morph) */
+	bool loose;     /* the views' transition strips unbounded (relief_view.loose_transitions) */
 };
 
 struct result {
@@ -347,6 +349,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		struct relief_view view = r->views[i], *v = &view;
 		view.tau = c->param > 0 && c->opts.fine == RELIEF_FINE_ERRORS ? c->param : 1.0; /* the tessellator's tau */
 		view.morph = c->morph;
+		view.loose_transitions = c->loose;
 		struct relief_terrain_stats st;
 		/* One untimed frame settles the view's hysteresis on the first pose. */
 		if (i == 0 && (ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1000, &c->opts, &st)) < 0)
@@ -358,6 +361,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			struct relief_view before = r->views[i - 1];
 			before.tau = view.tau;
 			before.morph = view.morph;
+			before.loose_transitions = view.loose_transitions;
 			struct relief_draw_options o = c->opts;
 			o.lod_view = &before;
 			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0)
@@ -486,9 +490,10 @@ int bench_lod(int argc, char **argv)
 		{ "targets", required_argument, NULL, 'P' }, { "device", required_argument, NULL, 'd' },
 		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
 		{ "morphed", no_argument, NULL, 'M' }, { "recheck-all", no_argument, NULL, 'A' },
-		{ "help", no_argument, NULL, 'h' },   { 0 },
+		{ "loose", no_argument, NULL, 'L' },  { "help", no_argument, NULL, 'h' },
+		{ 0 },
 	};
-	bool json = false, unculled = false, morphed = false, recheck_all = false;
+	bool json = false, unculled = false, morphed = false, recheck_all = false, loose = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	uint32_t ntau = 5, ntarget = 5;
@@ -519,11 +524,12 @@ int bench_lod(int argc, char **argv)
 		case 'd': device = optarg; break;
 		case 'U': unculled = true; break;
 		case 'M': morphed = true; break;
+		case 'L': loose = true; break;
 		case 'A': recheck_all = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
 			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--morphed]\n"
-			       "                        [--recheck-all] [--device DEV]\n"
+			       "                        [--loose] [--recheck-all] [--device DEV]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -536,6 +542,8 @@ int bench_lod(int argc, char **argv)
 			       "chunked-unculled, taken in turn with the rest): what that culling saves.\n"
 			       "--morphed: relief also drawn with geomorphing (method relief-morphed, views with\n"
 			       "morph set): what morphing costs and what it does to popping.\n"
+			       "--loose: relief also drawn with the tessellator's transition strips unbounded\n"
+			       "(method relief-loose, views with loose_transitions set): what bounding them costs.\n"
 			       "For relief and chunked, each pixel over tau is measured again at three times the\n"
 			       "resolution with three times tau (same LOD, same ray): max_3x is the maximum with those\n"
 			       "values, which tells the rasteriser's depth at a far sliver from a surface over tau;\n"
@@ -595,7 +603,7 @@ int bench_lod(int argc, char **argv)
 		goto out;
 	}
 
-	struct config cfg[1 + 8 * 6];
+	struct config cfg[1 + 8 * 7];
 	int n = 0;
 	cfg[n++] = (struct config){
 		.method = "full-grid", .opts = { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true
@@ -627,6 +635,11 @@ int bench_lod(int argc, char **argv)
 		cfg[n++] = (struct config){
 			.method = "relief-morphed", .param = taus[i],
 			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, .morph = true
+		};
+	for (uint32_t i = 0; i < ntau && loose; i++)
+		cfg[n++] = (struct config){
+			.method = "relief-loose", .param = taus[i],
+			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, .loose = true
 		};
 	if (!json) {
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;

@@ -34,6 +34,8 @@ static void snap_usage(FILE *f)
 		"      --tau PX         screen-space error threshold in pixels (default 1)\n"
 		"      --wire           overlay the wireframe\n"
 		"      --morph          geomorph changes of level (a blend, not a pop; docs/lod.md)\n"
+		"      --loose          leave the tessellator's transition strips unbounded: fewer\n"
+		"                       triangles, which may exceed tau (docs/lod.md)\n"
 		"      --depth FILE     distance along the view axis per pixel: little-endian float32,\n"
 		"                       row-major from the top row, +infinity where no terrain is seen\n"
 		"      --exact          also measure the frame triangle by triangle against the finest\n"
@@ -125,11 +127,13 @@ int cmd_snap(int argc, char **argv)
 		{ "budget", required_argument, NULL, 'b' }, { "device", required_argument, NULL, 'd' },
 		{ "validation", no_argument, NULL, 'V' },   { "help", no_argument, NULL, 'h' },
 		{ "roll", required_argument, NULL, 'r' },   { "morph", no_argument, NULL, 'M' },
-		{ "exact", no_argument, NULL, 'E' },        { 0 },
+		{ "exact", no_argument, NULL, 'E' },        { "loose", no_argument, NULL, 'L' },
+		{ 0 },
 	};
 	const char *output = NULL, *depth_path = NULL, *device = NULL;
 	double cam[3], look[3], fov = 50.0, tau = 1.0, roll = 0.0;
-	bool have_cam = false, have_look = false, wire = false, validation = false, morph = false, exact = false;
+	bool have_cam = false, have_look = false, wire = false, validation = false, morph = false, exact = false,
+	     loose = false;
 	uint32_t width = 1280, height = 720, budget = 256;
 	int c;
 	opterr = 0;
@@ -164,6 +168,7 @@ int cmd_snap(int argc, char **argv)
 			break;
 		case 'w': wire = true; break;
 		case 'M': morph = true; break;
+		case 'L': loose = true; break;
 		case 'E': exact = true; break;
 		case 'D': depth_path = optarg; break;
 		case 'b':
@@ -211,6 +216,7 @@ int cmd_snap(int argc, char **argv)
 		.zfar = 2.0 * reach,
 		.tau = tau,
 		.morph = morph,
+		.loose_transitions = loose,
 	};
 	const char *why;
 	if (relief_view_check(&view, &why) < 0) {

@@ -15,6 +15,7 @@
 #include <time.h>
 
 #include "patch_cache_internal.h"
+#include "strip_bound.h"
 
 /* ---- creation ---- */
 
@@ -22,6 +23,12 @@ size_t relief_patch_block_floats(uint32_t patch_size)
 {
 	size_t blocks = relief_block_ranges_per_patch(patch_size) / 2;
 	return relief_block_errors_per_patch(patch_size) + relief_block_ranges_per_patch(patch_size) + (blocks + 15) / 16;
+}
+
+size_t relief_patch_layer_floats(uint32_t patch_size)
+{
+	size_t blocks = relief_block_ranges_per_patch(patch_size) / 2;
+	return relief_patch_block_floats(patch_size) + blocks * 4 * RELIEF_STRIP_FLOATS;
 }
 
 static const VkImageUsageFlags POOL_USAGE =
@@ -34,7 +41,7 @@ static uint64_t pool_bytes_for(struct relief_patch_cache *c, uint32_t n)
 	VkDeviceSize m = relief_vk_image_bytes(c->vk, VK_FORMAT_R32_UINT, c->P, c->P, n, POOL_USAGE);
 	if (!h || !m)
 		return UINT64_MAX;
-	return h + m + (uint64_t)n * c->block_floats * sizeof(float);
+	return h + m + (uint64_t)n * c->layer_floats * sizeof(float);
 }
 
 /* The largest layer count whose pools fit the budget (real allocation sizes). */
@@ -85,6 +92,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	c->E = f->layout.geom.E;
 	c->count = f->hdr.index_records;
 	c->block_floats = relief_patch_block_floats(c->P);
+	c->layer_floats = relief_patch_layer_floats(c->P);
 	c->mask_ints = ((size_t)c->P * c->P + 3) / 4;
 	c->slot_ints = f->layout.geom.n_labels + (size_t)c->E * c->E + c->mask_ints + c->block_floats;
 
@@ -123,7 +131,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	                                POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
 	    (ret = relief_vk_image_init(vk, &c->normals, VK_FORMAT_R32_UINT, c->P, c->P, n,
 	                                VK_IMAGE_VIEW_TYPE_2D_ARRAY, POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
-	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->block_floats * sizeof(float),
+	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->layer_floats * sizeof(float),
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
 	                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, RELIEF_VK_MEMORY_DEVICE)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->staging, (VkDeviceSize)c->o.staging_slots * c->slot_ints * 4,

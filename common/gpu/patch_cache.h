@@ -14,7 +14,7 @@
  * (GLSL packSnorm4x8: x east, y north, z up, w validity; in memory the bytes of an
  * R8G8B8A8_SNORM texel), stored packed because a CPU implementation (lavapipe) converts a
  * four-channel store lane by lane but packs in SIMD (docs/benchmarks.md); block records
- * (relief_patch_block_floats()) per layer. Layer count: as many as the GPU memory budget holds (the
+ * (relief_patch_layer_floats()) per layer. Layer count: as many as the GPU memory budget holds (the
  * three pools' real allocation sizes never exceed it), at most maxImageArrayLayers and the
  * number of non-empty patches. All images stay in VK_IMAGE_LAYOUT_GENERAL.
  *
@@ -85,7 +85,7 @@ struct relief_patch_cache_stats {
 struct relief_patch_pool {
 	VkImageView heights;      /* 2D array, R32_SINT, (P+2)^2 */
 	VkImageView normals;      /* 2D array, R32_UINT (packed snorm8 x 4), P^2 */
-	VkBuffer block_errors;    /* per layer: its block record (relief_patch_block_floats()) */
+	VkBuffer block_errors;    /* per layer: its block record (relief_patch_layer_floats()) */
 	uint32_t layers;
 	/* The per-patch tables have one element per entry, the patch's record number in the
 	 * file's index (relief_index_entry()): EMPTY patches outside the raster have none.
@@ -142,15 +142,19 @@ int relief_patch_cache_layer(const struct relief_patch_cache *c, uint32_t id); /
 void relief_patch_cache_stats(const struct relief_patch_cache *c, struct relief_patch_cache_stats *s);
 const struct relief_patch_pool *relief_patch_cache_pool(const struct relief_patch_cache *c);
 
-/* A layer's block record, in floats: blocks^2 x 4 errors, blocks^2 x 2 height ranges
- * (metres; both as relief_file_block_errors() and _ranges() give them), then which blocks
- * have a valid sample (relief_mask_blocks()), 16 blocks per float: an integer 0..65535 whose
- * bit j in float w is block 16 w + j in raster order. The renderer draws nothing of a block
- * without one. */
+/* What a layer's block record holds from the file, in floats: blocks^2 x 4 errors,
+ * blocks^2 x 2 height ranges (metres; both as relief_file_block_errors() and _ranges() give
+ * them), then which blocks have a valid sample (relief_mask_blocks()), 16 blocks per float:
+ * an integer 0..65535 whose bit j in float w is block 16 w + j in raster order. The
+ * renderer draws nothing of a block without one. */
 size_t relief_patch_block_floats(uint32_t patch_size);
+/* A layer's whole block record, in floats: the above, then what the decode computes from
+ * the patch's samples, RELIEF_STRIP_FLOATS per block and edge (west, north, east, south;
+ * blocks in raster order): the transition strip bounds of relief_strip_bounds(). */
+size_t relief_patch_layer_floats(uint32_t patch_size);
 
 /* Copies one layer back to the host (waits): heights (P+2)^2 ints, normals P^2 x 4 snorm8,
- * the block record (relief_patch_block_floats() floats); any pointer may be NULL. For tests
- * and tools. */
+ * the block record (relief_patch_layer_floats() floats); any pointer may be NULL. For
+ * tests and tools. */
 int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, int32_t *heights, int8_t *normals,
                                   float *block_errors);

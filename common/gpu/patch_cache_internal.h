@@ -56,7 +56,8 @@ struct relief_patch_cache {
 	struct relief_logger log;
 	struct relief_patch_cache_options o;
 	uint32_t P, E, count; /* count: entries (relief_index_entry()), the per-patch arrays' length */
-	size_t block_floats;             /* floats per layer: its block record (relief_patch_block_floats()) */
+	size_t block_floats;             /* floats per patch from the file (relief_patch_block_floats()) */
+	size_t layer_floats;             /* floats per layer: those and the strip bounds (relief_patch_layer_floats()) */
 	size_t slot_ints;                /* labels, values, mask, block errors and ranges */
 	size_t mask_ints;                /* P^2 validity bytes, four per int */
 
@@ -73,7 +74,7 @@ struct relief_patch_cache {
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;
 	VkPipelineLayout pipeline_layout;
-	VkPipeline decode_pipeline, normals_pipeline;
+	VkPipeline decode_pipeline, normals_pipeline, strips_pipeline;
 	VkCommandPool cmd_pool;
 	VkQueryPool timer;
 	struct batch batches[IN_FLIGHT];

@@ -1,5 +1,6 @@
-/* The GPU side of the patch cache: descriptors, the two compute pipelines, the batches'
- * command buffers and the timestamps around the passes (patch_cache_internal.h). */
+/* The GPU side of the patch cache: descriptors, the three compute pipelines (decode,
+ * normals, transition strip bounds), the batches' command buffers and the timestamps
+ * around the passes (patch_cache_internal.h). */
 #include <errno.h>
 #include <string.h>
 
@@ -7,6 +8,7 @@
 
 #include "patch_decode.comp.spv.h"
 #include "patch_normals.comp.spv.h"
+#include "patch_strips.comp.spv.h"
 
 /* The staging buffer is read through an R32_SINT storage texel buffer, not as a storage
  * buffer: a CPU implementation (lavapipe) loads texels for all SIMD lanes at once (a
@@ -39,16 +41,17 @@ static int create_staging_view(struct relief_patch_cache *c)
 static int create_descriptors(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
-	VkDescriptorSetLayoutBinding b[5] = {
+	VkDescriptorSetLayoutBinding b[6] = {
 		{ 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 2, VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 3, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 4, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
+		{ 5, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 	};
 	VkDescriptorSetLayoutCreateInfo li = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-		.bindingCount = 5,
+		.bindingCount = 6,
 		.pBindings = b,
 	};
 	int ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &c->set_layout),
@@ -58,7 +61,7 @@ static int create_descriptors(struct relief_patch_cache *c)
 	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 1 },
-		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 },
+		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 3 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
@@ -81,15 +84,17 @@ static int create_descriptors(struct relief_patch_cache *c)
 	VkDescriptorImageInfo ni = { VK_NULL_HANDLE, c->normals.view, VK_IMAGE_LAYOUT_GENERAL };
 	VkDescriptorBufferInfo fi = { c->flags.buffer, 0, VK_WHOLE_SIZE };
 	VkDescriptorBufferInfo ji = { c->jobs.buffer, 0, VK_WHOLE_SIZE };
-	VkWriteDescriptorSet w[5] = {
+	VkDescriptorBufferInfo ei = { c->errors.buffer, 0, VK_WHOLE_SIZE };
+	VkWriteDescriptorSet w[6] = {
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 0, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &hi, NULL, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 1, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, &ni, NULL, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 2, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, NULL, NULL,
 		  &c->staging_view },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 3, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &fi, NULL },
 		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 4, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &ji, NULL },
+		{ VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET, NULL, c->set, 5, 0, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, NULL, &ei, NULL },
 	};
-	vkUpdateDescriptorSets(vk->device, 5, w, 0, NULL);
+	vkUpdateDescriptorSets(vk->device, 6, w, 0, NULL);
 	return 0;
 }
 
@@ -111,8 +116,11 @@ static int create_pipelines(struct relief_patch_cache *c)
 	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_decode_comp_spv),
 	                                             &c->decode_pipeline)) < 0)
 		return ret;
-	return relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_normals_comp_spv),
-	                                         &c->normals_pipeline);
+	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_normals_comp_spv),
+	                                             &c->normals_pipeline)) < 0)
+		return ret;
+	return relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_strips_comp_spv),
+	                                         &c->strips_pipeline);
 }
 
 static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags src_access,
@@ -166,6 +174,8 @@ static int init_layouts(struct relief_patch_cache *c)
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdDispatch(cmd, 1, 1, 1);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->strips_pipeline);
 	vkCmdDispatch(cmd, 1, 1, 1);
 	return relief_vk_cmd_submit_wait(c->vk, cmd);
 }
@@ -222,6 +232,8 @@ void patch_gpu_finish(struct relief_patch_cache *c)
 		vkDestroyPipeline(vk->device, c->decode_pipeline, NULL);
 	if (c->normals_pipeline)
 		vkDestroyPipeline(vk->device, c->normals_pipeline, NULL);
+	if (c->strips_pipeline)
+		vkDestroyPipeline(vk->device, c->strips_pipeline, NULL);
 	if (c->pipeline_layout)
 		vkDestroyPipelineLayout(vk->device, c->pipeline_layout, NULL);
 	if (c->descriptor_pool)
@@ -272,7 +284,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 		size_t slot_base = (size_t)b->jobs[i].slot * c->slot_ints;
 		copies[i] = (VkBufferCopy){
 			.srcOffset = (slot_base + c->slot_ints - c->block_floats) * 4,
-			.dstOffset = (VkDeviceSize)b->layers[i] * c->block_floats * sizeof(float),
+			.dstOffset = (VkDeviceSize)b->layers[i] * c->layer_floats * sizeof(float),
 			.size = c->block_floats * sizeof(float),
 		};
 		flags[b->jobs[i].slot] = 0;
@@ -314,12 +326,19 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	const uint32_t runs_p = ((c->P + 3) / 4 * ((c->P + 7) / 8) + RUN_ITEMS - 1) / RUN_ITEMS;
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
 	vkCmdDispatch(cmd, runs_e, 1, b->n);
-	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+	/* The heights for the next two passes; and the block records' copy before the strips
+	 * pass writes the rest of each record (other bytes, but the same buffer binding). */
+	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	if (c->timer) /* after the barrier: the decode pass has finished */
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 1);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
 	vkCmdDispatch(cmd, runs_p, 1, b->n);
+	/* The transition strip bounds read the heights too and write their own part of the
+	 * layers' block records: no barrier after the normals pass. */
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->strips_pipeline);
+	vkCmdDispatch(cmd, 1, 1, b->n);
 	/* Make the results visible to every later reader, and the flags to the host. */
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
 	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -343,7 +362,7 @@ int relief_patch_cache_read_layer(struct relief_patch_cache *c, uint32_t layer, 
 	if (layer >= c->pool.layers)
 		return -EINVAL;
 	struct relief_vk *vk = c->vk;
-	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->block_floats * sizeof(float);
+	size_t hb = (size_t)c->E * c->E * 4, nb = (size_t)c->P * c->P * 4, eb = c->layer_floats * sizeof(float);
 	struct relief_vk_buffer out;
 	int ret = relief_vk_buffer_init(vk, &out, hb + nb + eb, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
 	                                RELIEF_VK_MEMORY_READBACK);

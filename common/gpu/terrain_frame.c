@@ -189,7 +189,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
 	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) | (view->morph ? MODE_MORPH : 0u) |
-	                      (opts->keep_empty_blocks ? MODE_KEEP_EMPTY_BLOCKS : 0u);
+	                      (opts->keep_empty_blocks ? MODE_KEEP_EMPTY_BLOCKS : 0u) |
+	                      (view->loose_transitions ? MODE_LOOSE_STRIPS : 0u);
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);

@@ -95,7 +95,8 @@ struct draw_camera {
 };
 
 /* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts,
- * bit 4 no block culling, bit 5 morphing, bit 6 blocks without data drawn. */
+ * bit 4 no block culling, bit 5 morphing, bit 6 blocks without data drawn, bit 9 the
+ * transition strips left unbounded (relief_view.loose_transitions). */
 #define MODE_NO_SKIRTS 8u
 #define MODE_NO_BLOCK_CULL 16u
 #define MODE_MORPH 32u
@@ -104,6 +105,7 @@ struct draw_camera {
  * vertex shader reads quad indices from that list (bit 8). docs/lod.md, "Back faces". */
 #define MODE_SKIP_CLIPPED 128u
 #define MODE_CLIPPED_LIST 256u
+#define MODE_LOOSE_STRIPS 512u
 
 /* One descriptor set for every stage. Per-patch buffers have one element per entry, a
  * patch's record number in the file's index (relief_index_entry(); shaders/patch_entry.glsl).

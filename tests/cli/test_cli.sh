@@ -348,7 +348,7 @@ expect_text bench-lod-mesh '"max_err_mesh_px":'
 expect_text bench-lod-mesh-full-grid '"max_err_mesh_px":0.0000,'
 # Transition triangles by kind, and, with relief's and chunked LOD's power-of-two factors,
 # none of another kind: every one lies in a column of an edge's strip (docs/lod.md,
-# "Transition triangles: what would bound them"). The distance baseline's factors are not
+# "Transition triangles: what bounds them"). The distance baseline's factors are not
 # powers of two: its transitions are of no kind.
 expect_text bench-lod-mesh-kinds '"max_err_mesh_coarse_edge_px":'
 m=$(grep -E '"method":"(relief|chunked)"' <<<"$LAST_OUT" | grep -c '"other_triangles":0,')

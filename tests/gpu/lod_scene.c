@@ -91,6 +91,29 @@ void render(struct scene *s, struct relief_view *v, float *depth, struct relief_
 	render_with(s, v, NULL, depth, st);
 }
 
+/* Pixel (x, y) of a LOD render over tau: whether it shows something farther (reversed
+ * depth: smaller) than all eight neighbours, each of which shows terrain within tau (see
+ * struct comparison). */
+static bool pinhole(const struct scene *s, const struct relief_view *v, const float *lod, const float *finest,
+                    uint32_t fw, uint32_t fh, int x, int y)
+{
+	const int W = (int)v->width, H = (int)v->height;
+	const float d = lod[y * W + x];
+	for (int dy = -1; dy <= 1; dy++)
+		for (int dx = -1; dx <= 1; dx++) {
+			const int xx = x + dx, yy = y + dy;
+			if (dx == 0 && dy == 0)
+				continue;
+			if (xx < 0 || yy < 0 || xx >= W || yy >= H || !(lod[yy * W + xx] > d))
+				return false;
+			struct relief_vec3 pt = relief_view_unproject(v, xx, yy, lod[yy * W + xx]);
+			double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
+			if (relief_view_segment_px(v, pt, e) > v->tau)
+				return false;
+		}
+	return true;
+}
+
 struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref,
                           const float *lod, const float *finest, uint32_t fw, uint32_t fh)
 {
@@ -111,6 +134,11 @@ struct comparison compare(const struct scene *s, const struct relief_view *v, co
 				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
 				double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
 				double px = relief_view_segment_px(v, pt, e);
+				if (px > v->tau && pinhole(s, v, lod, finest, fw, fh, x, y)) {
+					c.pinholes++;
+					c.both++;
+					continue;
+				}
 				if (px > c.worst_px) {
 					c.worst_px = px;
 					c.worst_m = e;
@@ -213,8 +241,9 @@ void bound_buffers(struct bound_scene *b)
 	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
 	b->finest = malloc(sizeof(float) * b->fw * b->fh);
 	assert_int_equal(relief_decode_level(b->s.f, b->s.f->hdr.levels - 1, 0, b->finest, NULL), 0);
-	b->ref = malloc(sizeof(float) * BW * BH);
-	b->lod = malloc(sizeof(float) * BW * BH);
+	const size_t px = (size_t)b->s.target.width * b->s.target.height; /* BW x BH unless opened otherwise */
+	b->ref = malloc(sizeof(float) * px);
+	b->lod = malloc(sizeof(float) * px);
 }
 
 struct relief_dem grid_dem(int N)
@@ -314,9 +343,10 @@ void within_tau_of_reference(struct scene *s, struct relief_view *v, const doubl
 		render(s, v, lod, &st);
 		struct comparison c = compare(s, v, ref, lod, finest, fw, fh);
 		print_message("%s, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px (%.1f m) over "
-		              "%u pixels\n", what, v->tau, st.patches, (unsigned long long)st.triangles, c.holes, c.worst_px,
-		              c.worst_m, c.both);
+		              "%u pixels, %u pinholes\n", what, v->tau, st.patches, (unsigned long long)st.triangles, c.holes,
+		              c.worst_px, c.worst_m, c.both, c.pinholes);
 		assert_int_equal(c.holes, 0);
+		assert_true(c.pinholes <= 1);
 		assert_true(c.both > min_pixels);
 		assert_true(c.worst_px <= v->tau);
 	}

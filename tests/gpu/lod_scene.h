@@ -52,11 +52,19 @@ void render(struct scene *s, struct relief_view *v, float *depth, struct relief_
 struct comparison {
 	uint32_t holes, both; /* background inside the reference's silhouette; terrain in both */
 	double worst_px, worst_m; /* largest vertical error against the finest decoded surface */
+	/* pixels over tau that see through the surface all eight neighbours show, left out of
+	 * worst_px: the rasteriser's pinholes (below) */
+	uint32_t pinholes;
 };
 
 /* A LOD render (depth `lod`) against the full-resolution one (`ref`) of the same view. A
  * pixel is inside the silhouette when the reference shows terrain within ceil(tau) + 1
- * pixels all around it. */
+ * pixels all around it. A pixel over tau that shows something farther than the reference
+ * and than all eight of its neighbours, which are within tau, is a pinhole: lavapipe's
+ * rasteriser leaves such single pixels uncovered between triangles that share their
+ * vertices bit for bit (seen, December 2026, where the mesh capture found that frame's
+ * mesh within tau everywhere and without a T-junction); a crack is a line of pixels, which
+ * this does not leave out, and test_sealed_borders looks for cracks with nothing behind. */
 struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref, const float *lod,
                           const float *finest, uint32_t fw, uint32_t fh);
 

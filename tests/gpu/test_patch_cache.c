@@ -15,6 +15,7 @@
 #include "normals.h"
 #include "pack.h"
 #include "patch_cache.h"
+#include "strip_bound.h"
 
 #define vk gpu_test_vk
 
@@ -90,7 +91,10 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	int32_t *gpu_h = malloc(sizeof(int32_t) * EE);
 	int8_t *gpu_n = malloc((size_t)P * P * 4);
 	const size_t nrec = relief_patch_block_floats(P); /* errors, ranges, then which blocks have data */
-	float *gpu_e = malloc(sizeof(float) * nrec), *cpu_e = malloc(sizeof(float) * nb);
+	const size_t nlayer = relief_patch_layer_floats(P), nstrip = nlayer - nrec; /* then the strip bounds */
+	float *gpu_e = malloc(sizeof(float) * nlayer), *cpu_e = malloc(sizeof(float) * nb);
+	float *cpu_strips = malloc(sizeof(float) * nstrip);
+	double strip_diff = 0, strip_max = 0; /* the strip bounds' GPU - CPU twin, and their largest */
 	uint32_t checked = 0;
 	double worst_normal = 0;
 	int twin_steps = 0;      /* largest difference between the CPU twin and the GPU, snorm8 steps */
@@ -166,6 +170,15 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 					twin_same += steps == 0;
 				}
 			free(twin);
+			/* The strip bounds (patch_strips.comp) against their CPU twin (strip_bound.c). */
+			relief_strip_bounds(cpu, P, (float)q2, mask, cpu_strips);
+			for (size_t k = 0; k < nstrip; k++) {
+				const double g = gpu_e[nrec + k], cs = cpu_strips[k];
+				strip_diff = fmax(strip_diff, fabs(g - cs) / fmax(1.0, fabs(cs)));
+				strip_max = fmax(strip_max, cs);
+				if (!(g >= 0.0))
+					fail_msg("%s patch %u strip bound %zu: %g", test_dem_name(d), id, k, g);
+			}
 			free(mask);
 			for (uint32_t y = 0; y < P; y++)
 				for (uint32_t x = 0; x < P; x++) {
@@ -188,6 +201,12 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 	print_message("%s: the CPU normals twin equals the GPU in %.4f %% of components, at most %d snorm8 step(s) off\n",
 	              test_dem_name(d), 100.0 * (double)twin_same / ((double)checked * P * P * 4), twin_steps);
 	assert_true(twin_steps <= 1);
+	print_message("%s: transition strip bounds up to %.2f m, GPU against the CPU twin within %.2g (relative, or m "
+	              "below 1 m)\n",
+	              test_dem_name(d), strip_max, strip_diff);
+	assert_true(strip_diff <= 1e-5);
+	assert_true(strip_max > 0.0);
+	free(cpu_strips);
 	print_message("%s: %u of %u blocks have a valid sample, their bits in the layers as the masks say\n",
 	              test_dem_name(d), blocks_with_data, blocks_seen);
 	assert_true(blocks_with_data > 0);
