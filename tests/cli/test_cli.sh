@@ -226,6 +226,13 @@ vkcheck snap-exact 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 
 expect_text snap-exact-line "relief snap: exact: "
 expect_text snap-exact-regular "regular triangles "
 expect_text snap-exact-kinds ", other 0"
+# --loose: the transition strips unbounded (relief_view.loose_transitions): fewer triangles.
+vkcheck snap-loose 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/loose.png" --loose
+loose_tri=$(grep -o '[0-9]* triangles' <<<"$LAST_OUT" | head -1 | cut -d' ' -f1)
+vkcheck snap-bounded 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/bounded.png"
+bounded_tri=$(grep -o '[0-9]* triangles' <<<"$LAST_OUT" | head -1 | cut -d' ' -f1)
+[ -n "$loose_tri" ] && [ -n "$bounded_tri" ] && [ "$loose_tri" -lt "$bounded_tri" ] ||
+	{ echo "FAIL snap --loose: $loose_tri triangles, bounded $bounded_tri"; fails=$((fails + 1)); }
 vkcheck snap-nan 2 "$relief" snap "$tmp/ps.relief" --camera nan,0,100 --look 1,1,0 -o "$tmp/x.png"
 expect_text snap-nan-named "--camera"
 vkcheck snap-zero-size 2 "$relief" snap "$tmp/ps.relief" --camera 0,0,100 --look 1,1,0 --size 0x10 -o "$tmp/x.png"
