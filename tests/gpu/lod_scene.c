@@ -91,9 +91,9 @@ void render(struct scene *s, struct relief_view *v, float *depth, struct relief_
 	render_with(s, v, NULL, depth, st);
 }
 
-/* Pixel (x, y) of a LOD render over tau: whether it shows something farther (reversed
- * depth: smaller) than all eight neighbours, each of which shows terrain within tau (see
- * struct comparison). */
+/* Pixel (x, y) of a LOD render over tau, farther than the reference: whether it also shows
+ * something farther (reversed depth: smaller) than all eight neighbours, each of which
+ * shows terrain within tau (see struct comparison). */
 static bool pinhole(const struct scene *s, const struct relief_view *v, const float *lod, const float *finest,
                     uint32_t fw, uint32_t fh, int x, int y)
 {
@@ -134,7 +134,7 @@ struct comparison compare(const struct scene *s, const struct relief_view *v, co
 				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
 				double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
 				double px = relief_view_segment_px(v, pt, e);
-				if (px > v->tau && pinhole(s, v, lod, finest, fw, fh, x, y)) {
+				if (px > v->tau && d < ref[y * W + x] && pinhole(s, v, lod, finest, fw, fh, x, y)) {
 					c.pinholes++;
 					c.both++;
 					continue;
