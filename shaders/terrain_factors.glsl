@@ -282,10 +282,10 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 	}
 	// One level coarser than the finest edge makes a fine-edge strip (or a fan) along each
 	// edge at that level: kept only where eps_d plus its D projects within tau at the
-	// edge's points and the block's centre, else the interior takes the finest edge's level, which leaves strips
-	// along coarser edges only, which their edges' own levels bound (edge_eps_at()). A
-	// level-4 interior (factor 1, drawn as the centre alone) is no coarser than it looks
-	// against edges of 2 segments.
+	// edge's points and the block's centre, else the interior takes the finest edge's
+	// level, which leaves strips along coarser edges only, which their edges' own levels
+	// bound (edge_eps_at()). A level-4 interior (factor 1, drawn as the centre alone) is
+	// no coarser than it looks against edges of 2 segments.
 	int finest = findMSB(int(BLOCK_CELLS) / int(finest_edge));
 	if (d == finest + 1 && finest <= 2 && strips_bounded()) {
 		ivec2 bl = ivec2(lo) / int(BLOCK_CELLS);
