@@ -170,10 +170,9 @@ static int strip_edge(const int a[3], const int b[3], int si)
 	return edge;
 }
 
-enum relief_mesh_kind relief_mesh_kind(const struct relief_mesh_vertex *c, const struct relief_mesh_quad *q)
+/* The kind of a triangle that is not regular (regular_side() 0) drawn in quad q. */
+static enum relief_mesh_kind transition_kind(const struct relief_mesh_vertex *c, const struct relief_mesh_quad *q)
 {
-	if (regular_side(c))
-		return RELIEF_MESH_REGULAR;
 	const int n = RELIEF_BLOCK_CELLS;
 	if (!q || q->cells < (uint32_t)n || q->cells % n)
 		return RELIEF_MESH_UNKNOWN;
@@ -210,6 +209,11 @@ enum relief_mesh_kind relief_mesh_kind(const struct relief_mesh_vertex *c, const
 	return so > si ? RELIEF_MESH_COARSE_EDGE : inner == 2 ? RELIEF_MESH_FAN : RELIEF_MESH_FINE_EDGE;
 }
 
+enum relief_mesh_kind relief_mesh_kind(const struct relief_mesh_vertex *c, const struct relief_mesh_quad *q)
+{
+	return regular_side(c) ? RELIEF_MESH_REGULAR : transition_kind(c, q);
+}
+
 void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest, uint32_t w,
                        uint32_t h, const struct relief_mesh_vertex *tri, const struct relief_mesh_quad *quads,
                        uint64_t n, struct relief_mesh_error *out)
@@ -234,7 +238,7 @@ void relief_mesh_error(const struct relief_file *f, const struct relief_view *v,
 		p.tri = c;
 		p.cell = regular_side(c);
 		p.transition = p.cell == 0;
-		p.kind = quads ? relief_mesh_kind(c, &quads[t]) : RELIEF_MESH_UNKNOWN;
+		p.kind = !quads ? RELIEF_MESH_UNKNOWN : p.transition ? transition_kind(c, &quads[t]) : RELIEF_MESH_REGULAR;
 		out->transition += p.transition;
 		out->kind_triangles[p.kind]++;
 		measure_triangle(&p);

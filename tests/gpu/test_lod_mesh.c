@@ -209,6 +209,21 @@ static void test_mesh_capture_and_measure(void **state)
 	bound_close(&b);
 }
 
+/* View v drawn and measured with the strips bounded (n[0], e[0]) and loose (n[1], e[1]). */
+static void measure_bounded_and_loose(struct bound_scene *b, struct relief_view v, const char *what, size_t pose,
+                                      uint64_t n[2], struct relief_mesh_error e[2])
+{
+	assert_int_equal(relief_terrain_view_mesh_enable(b->s.view, MESH_CAP), 0);
+	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)MESH_CAP);
+	for (int k = 0; k < 2; k++) {
+		v.loose_transitions = k;
+		n[k] = mesh_measure(b, &v, NULL, tri, &e[k]);
+		print_message("%s:\n", k ? "loose" : "bounded");
+		print_mesh_error(what, pose, v.tau, false, n[k], &e[k]);
+	}
+	free(tri);
+}
+
 /* The strip bounds are what keeps the transitions within tau: with loose_transitions the
  * same view (Mont Blanc pose 0, tau = 1) draws fewer triangles and a fan from a block's
  * centre is over tau (1.19 px in December 2026), bounded it is within. */
@@ -216,21 +231,14 @@ static void test_mesh_loose_transitions(void **state)
 {
 	struct bound_scene b;
 	bound_open(&b, vk, DEM_ALPS);
-	assert_int_equal(relief_terrain_view_mesh_enable(b.s.view, MESH_CAP), 0);
-	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)MESH_CAP);
 	struct relief_view v = pose_view(&alps_bound_poses[0]);
 	v.tau = 1.0;
 	struct relief_mesh_error e[2];
 	uint64_t n[2];
-	for (int k = 0; k < 2; k++) {
-		v.loose_transitions = k;
-		n[k] = mesh_measure(&b, &v, NULL, tri, &e[k]);
-		print_mesh_error(k ? "Mont Blanc, loose" : "Mont Blanc, bounded", 0, v.tau, false, n[k], &e[k]);
-	}
+	measure_bounded_and_loose(&b, v, "Mont Blanc", 0, n, e);
 	assert_true(e[0].max_px_transition <= v.tau);
 	assert_true(e[1].max_px_transition > v.tau);
 	assert_true(n[1] < n[0]);
-	free(tri);
 	bound_close(&b);
 }
 
@@ -248,22 +256,15 @@ static void test_mesh_single_segment_frame(void **state)
 	struct bound_scene b;
 	scene_open(&b.s, vk, DEM_PUGET, 1.0, 480, 270);
 	bound_buffers(&b);
-	assert_int_equal(relief_terrain_view_mesh_enable(b.s.view, MESH_CAP), 0);
-	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)MESH_CAP);
-	struct relief_view v = {
+	const struct relief_view v = {
 		.eye = { 59792.533, 59830.933, 3603.84 }, .target = { 92560.533, 92598.933, -10298.445 },
 		.fovy = 55 * M_PI / 180, .width = 480, .height = 270, .znear = 1, .zfar = 551005.5, .tau = 2.0,
 	};
 	struct relief_mesh_error e[2];
 	uint64_t n[2];
-	for (int k = 0; k < 2; k++) {
-		v.loose_transitions = k;
-		n[k] = mesh_measure(&b, &v, NULL, tri, &e[k]);
-		print_mesh_error(k ? "single-segment frame, loose" : "single-segment frame", 31, v.tau, false, n[k], &e[k]);
-	}
+	measure_bounded_and_loose(&b, v, "single-segment frame", 31, n, e);
 	assert_true(e[0].max_px <= v.tau);
 	assert_true(n[1] < n[0]);
-	free(tri);
 	bound_close(&b);
 }
 
