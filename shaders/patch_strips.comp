@@ -49,9 +49,9 @@ ivec2 at(int along, int depth)
 	               : edge == 2 ? ivec2(n - depth, along) : ivec2(along, n - depth));
 }
 
-int h(int along, int depth) { return imageLoad(heights, ivec3(at(along, depth) + 1, pc.layer)).x; }
+int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(along, depth) + 1, pc.layer)).x; }
 
-bool valid(int along, int depth)
+bool sample_valid(int along, int depth)
 {
 	if (pc.mask == ~0u)
 		return true;
@@ -60,63 +60,24 @@ bool valid(int along, int depth)
 	return ((uint(imageLoad(staging, int(pc.mask + i / 4u)).x) >> (8u * (i % 4u))) & 0xffu) != 0u;
 }
 
-// Coarse-edge strips of an edge with segments of `so` samples: every ring vertex v (at
-// depth si < so, si a power of two, every si along, inset by si at both ends) against
+// The bounds, written out term by term by shaders/strip_terms_gen.c at build time (it says
+// why); what they compute, for an edge with segments of `so` samples:
+//
+// coarse_edge_<so>: coarse-edge strips against any finer interior: every ring vertex v
+// (at depth si < so, si a power of two, every si along, inset by si at both ends) against
 // each half of its column's square that touches the edge and holds v; a triangle of such
 // a strip lies in one of those halves (the ring is at most so / 2 deep), where T - L is
 // linear and vanishes at the edge's vertices, so |T - L| peaks at a ring vertex.
-float coarse_edge(int so)
-{
-	float worst = 0.0;
-	for (int c0 = 0; c0 < int(BLOCK_CELLS); c0 += so) {
-		if (!valid(c0, 0) || !valid(c0 + so, 0) || !valid(c0, so) || !valid(c0 + so, so))
-			continue;
-		int h00 = h(c0, 0);
-		float dx = float(h(c0 + so, 0) - h00) / float(so);
-		float dy_lo = float(h(c0, so) - h00) / float(so);           // half P00 P10 P01
-		float dy_hi = float(h(c0 + so, so) - h(c0 + so, 0)) / float(so); // half P00 P10 P11
-		for (int si = 1; si < so; si *= 2)
-			for (int t = max(c0, si); t <= min(c0 + so, int(BLOCK_CELLS) - si); t += si) {
-				if (t % si != 0 || !valid(t, si))
-					continue;
-				int x = t - c0;
-				float a = float(h(t, si) - h00) - dx * float(x);
-				if (x + si <= so)
-					worst = max(worst, abs(a - dy_lo * float(si)));
-				if (x >= si)
-					worst = max(worst, abs(a - dy_hi * float(si)));
-			}
-	}
-	return worst;
-}
-
-// Fine-edge strips (and fans) of an edge with segments of `so` samples against an
-// interior of cells of c = 2 so: per column square Q of side c, the triangles joining an
-// edge segment to a corner of Q's far side lie in one half of Q with only the edge's middle
-// vertex M off it (|T - L| = its deviation from Q's edge); a triangle joining Q's far side
-// (a ring segment, where the ring has both ends) to M crosses both diagonals, and with L
-// the better of Q's two triangulations, |T - L| peaks at M or where T's edge meets L's
-// diagonal, a third of the way up: (hB + 2 hM - hA - 2 hC) / 3 with the diagonal A-C,
-// (hA + 2 hM - 2 hO - hB) / 3 with O-B (O, C the edge's ends, A, B the far side's, A above O).
-float fine_edge(int so)
-{
-	const int n = int(BLOCK_CELLS), c = 2 * so;
-	float worst = 0.0;
-	for (int c0 = 0; c0 < n; c0 += c) {
-		if (!valid(c0, 0) || !valid(c0 + so, 0) || !valid(c0 + c, 0) || !valid(c0, c) || !valid(c0 + c, c))
-			continue;
-		int o = h(c0, 0);
-		float m = float(h(c0 + so, 0) - o), cc = float(h(c0 + c, 0) - o);
-		float a = float(h(c0, c) - o), b = float(h(c0 + c, c) - o);
-		float mid = abs(m - 0.5 * cc);
-		worst = max(worst, mid);
-		if (c0 >= c && c0 + c <= n - c) { // both ends of the ring segment exist
-			float e1 = abs(b + 2.0 * m - a - 2.0 * cc) / 3.0, e2 = abs(a + 2.0 * m - b) / 3.0;
-			worst = max(worst, max(mid, min(e1, e2)));
-		}
-	}
-	return worst;
-}
+//
+// fine_edge_<so>: fine-edge strips (and fans) against an interior of cells of c = 2 so:
+// per column square Q of side c, the triangles joining an edge segment to a corner of Q's
+// far side lie in one half of Q with only the edge's middle vertex M off it (|T - L| = its
+// deviation from Q's edge); a triangle joining Q's far side (a ring segment, where the
+// ring has both ends) to M crosses both diagonals, and with L the better of Q's two
+// triangulations, |T - L| peaks at M or where T's edge meets L's diagonal, a third of the
+// way up: (hB + 2 hM - hA - 2 hC) / 3 with the diagonal A-C, (hA + 2 hM - 2 hO - hB) / 3
+// with O-B (O, C the edge's ends, A, B the far side's, A above O).
+#include "strip_terms.glsl"
 
 void main()
 {
@@ -130,10 +91,14 @@ void main()
 		origin = bl * int(BLOCK_CELLS);
 		edge = int(i % 4u);
 		uint base = block_strip_index(pc.layer, bl, uint(edge), blocks);
-		for (int e = 1; e <= 4; e++)
-			rec[base + uint(e - 1)] = pc.q2 * coarse_edge(1 << e);
-		for (int e = 0; e <= 2; e++)
-			rec[base + 4u + uint(e)] = pc.q2 * fine_edge(1 << e);
+		strip_load();
+		rec[base + 0u] = pc.q2 * coarse_edge_2();
+		rec[base + 1u] = pc.q2 * coarse_edge_4();
+		rec[base + 2u] = pc.q2 * coarse_edge_8();
+		rec[base + 3u] = pc.q2 * coarse_edge_16();
+		rec[base + 4u] = pc.q2 * fine_edge_1();
+		rec[base + 5u] = pc.q2 * fine_edge_2();
+		rec[base + 6u] = pc.q2 * fine_edge_4();
 		rec[base + 7u] = 0.0;
 	}
 }

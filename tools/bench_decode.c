@@ -10,7 +10,8 @@
  *   gpu       wall time from the first request to the last patch resident in the cache:
  *             the worker thread entropy-decodes while the GPU reconstructs, in batches;
  *             gpu_busy_ms is the GPU's own time from timestamps, split into the decode
- *             pass (with the block error copies) and the normals pass. */
+ *             pass (with the block error copies), the normals pass and the transition
+ *             strip bounds' pass. */
 #include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -193,7 +194,7 @@ int bench_decode(int argc, char **argv)
 	const uint32_t P = f->hdr.patch_size;
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
-	double cpu[16], ent[16], nrm[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], worker[16];
+	double cpu[16], ent[16], nrm[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], gpu_str[16], worker[16];
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_vk *vk = NULL;
@@ -227,6 +228,7 @@ int bench_decode(int argc, char **argv)
 		gpu_busy[i] = st.gpu_ns * 1e-9;
 		gpu_dec[i] = st.gpu_decode_ns * 1e-9;
 		gpu_nrm[i] = st.gpu_normals_ns * 1e-9;
+		gpu_str[i] = st.gpu_strips_ns * 1e-9;
 		worker[i] = st.entropy_ns * 1e-9;
 	}
 	uint32_t descent = 0;
@@ -235,7 +237,7 @@ int bench_decode(int argc, char **argv)
 	double c = bench_median(cpu, runs), e = bench_median(ent, runs), g = bench_median(gpu, runs);
 	double cn = bench_median(nrm, runs);
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
-	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs);
+	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs), gs = bench_median(gpu_str, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 	if (json) {
 		printf("{\"file\":");
@@ -243,12 +245,12 @@ int bench_decode(int argc, char **argv)
 		printf(",\"patches\":%u,\"gpu_msps\":%.3f,\"cpu_ref_msps\":%.3f,\"entropy_msps\":%.3f,"
 		       "\"ratio_gpu_over_cpu\":%.3f,\"bytes_per_patch\":%llu,\"gpu_patches_per_s\":%.1f,"
 		       "\"gpu_wall_ms\":%.4f,\"gpu_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
-		       "\"gpu_normals_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
+		       "\"gpu_normals_pass_ms\":%.2f,\"gpu_strips_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
 		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u,"
 		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"ratio_same_outputs\":%.3f",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, gd * 1e3, gn * 1e3,
-		       w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
+		       gs * 1e3, w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
 		       (c + cn) / g);
 		bench_json_machine(vk->props.deviceName);
 	} else {
@@ -261,8 +263,8 @@ int bench_decode(int argc, char **argv)
 		printf("  GPU path (%u worker(s) + GPU) %7.2f ms  %7.2f MSamples/s  %.0f patches/s  ratio GPU/CPU %.2f\n",
 		       workers, g * 1e3, samples / g / 1e6, patches / g, c / g);
 		printf("    GPU busy (timestamps)      %8.2f ms in %llu batches (decode pass %.2f ms, normals pass "
-		       "%.2f ms); worker entropy %.2f ms\n",
-		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, w * 1e3);
+		       "%.2f ms, strips pass %.2f ms); worker entropy %.2f ms\n",
+		       gb * 1e3, (unsigned long long)st.batches, gd * 1e3, gn * 1e3, gs * 1e3, w * 1e3);
 		printf("  CPU normals (1 thread)       %8.2f ms  (the shader's twin; with the reference: %.2f ms, "
 		       "ratio GPU/CPU at equal outputs %.2f)\n", cn * 1e3, (c + cn) * 1e3, (c + cn) / g);
 		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block records: errors, ranges, which have data)\n",

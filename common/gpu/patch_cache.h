@@ -75,7 +75,8 @@ struct relief_patch_cache_stats {
 	uint64_t decoded, evicted, bad, batches;
 	uint64_t gpu_ns;          /* summed GPU time of the decode batches (timestamps) */
 	uint64_t gpu_decode_ns;   /* of which heights: block error copies and the decode pass */
-	uint64_t gpu_normals_ns;  /* and normals: the normals pass */
+	uint64_t gpu_normals_ns;  /* the normals pass */
+	uint64_t gpu_strips_ns;   /* and the transition strip bounds' pass */
 	uint64_t entropy_ns;      /* summed worker time in fetch + entropy decoding */
 	uint32_t waiting;         /* patches entropy-decoded, not yet taken into a batch */
 	uint32_t queue_entries;   /* request queue entries: at most twice the live ones plus 256 */

@@ -10,6 +10,10 @@
 #include "patch_normals.comp.spv.h"
 #include "patch_strips.comp.spv.h"
 
+/* Timestamps per batch: its start, the decode pass's end, the normals pass's, the strips
+ * pass's (the batch's end). */
+#define QUERIES 4
+
 /* The staging buffer is read through an R32_SINT storage texel buffer, not as a storage
  * buffer: a CPU implementation (lavapipe) loads texels for all SIMD lanes at once (a
  * gather), but a storage buffer lane by lane in a scalar loop with a bounds check each,
@@ -191,7 +195,7 @@ static int create_batches(struct relief_patch_cache *c)
 	int ret = relief_vk_check(vk, vkCreateCommandPool(vk->device, &pi, NULL, &c->cmd_pool), "vkCreateCommandPool");
 	if (ret < 0)
 		return ret;
-	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, 3 * IN_FLIGHT, &c->timer)) < 0)
+	if (vk->timestamp_valid_bits && (ret = relief_vk_query_pool_create(vk, 0, QUERIES * IN_FLIGHT, &c->timer)) < 0)
 		return ret;
 	for (int i = 0; i < IN_FLIGHT; i++) {
 		VkCommandBufferAllocateInfo ai = {
@@ -248,15 +252,15 @@ void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)
 {
 	if (!c->timer)
 		return;
-	/* Timestamps: batch start, decode pass done, normals pass done. */
-	uint64_t t[3];
-	uint32_t first = (uint32_t)(b - c->batches) * 3;
-	if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 3, sizeof(t), t, sizeof(uint64_t),
+	uint64_t t[QUERIES];
+	uint32_t first = (uint32_t)(b - c->batches) * QUERIES;
+	if (vkGetQueryPoolResults(c->vk->device, c->timer, first, QUERIES, sizeof(t), t, sizeof(uint64_t),
 	                          VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
 		return;
-	c->stats.gpu_ns += relief_vk_ticks_elapsed_ns(c->vk, t[0], t[2]);
+	c->stats.gpu_ns += relief_vk_ticks_elapsed_ns(c->vk, t[0], t[3]);
 	c->stats.gpu_decode_ns += relief_vk_ticks_elapsed_ns(c->vk, t[0], t[1]);
 	c->stats.gpu_normals_ns += relief_vk_ticks_elapsed_ns(c->vk, t[1], t[2]);
+	c->stats.gpu_strips_ns += relief_vk_ticks_elapsed_ns(c->vk, t[2], t[3]);
 }
 
 int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
@@ -268,9 +272,9 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	int ret = relief_vk_cmd_reuse(vk, b->cmd, &cmd);
 	if (ret < 0)
 		return ret;
-	uint32_t q = (uint32_t)(b - c->batches) * 3;
+	uint32_t q = (uint32_t)(b - c->batches) * QUERIES;
 	if (c->timer) {
-		vkCmdResetQueryPool(cmd, c->timer, q, 3);
+		vkCmdResetQueryPool(cmd, c->timer, q, QUERIES);
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, c->timer, q);
 	}
 	/* Earlier batches (parents, reused layers) and readers of evicted layers come first. */
@@ -336,7 +340,10 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
 	vkCmdDispatch(cmd, runs_p, 1, b->n);
 	/* The transition strip bounds read the heights too and write their own part of the
-	 * layers' block records: no barrier after the normals pass. */
+	 * layers' block records: no barrier after the normals pass (so the timestamp between
+	 * them marks the normals' end; the strips may have started). */
+	if (c->timer)
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 2);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->strips_pipeline);
 	vkCmdDispatch(cmd, 1, 1, b->n);
 	/* Make the results visible to every later reader, and the flags to the host. */
@@ -345,7 +352,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT | VK_PIPELINE_STAGE_HOST_BIT,
 	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
 	if (c->timer)
-		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 2);
+		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, c->timer, q + 3);
 	if ((ret = relief_vk_check(vk, vkResetFences(vk->device, 1, &b->fence), "vkResetFences")) < 0)
 		return ret;
 	if ((ret = relief_vk_cmd_submit_kept(vk, cmd, b->fence)) < 0)
