@@ -1,13 +1,14 @@
 /* Transition strip bounds (see strip_bound.h), the CPU twin of shaders/patch_strips.comp:
  * its comments say why each bound holds. */
+#include <errno.h>
 #include <math.h>
+#include <stdlib.h>
 
 #include "layout.h"
 #include "strip_bound.h"
 
 struct strip {
 	const int32_t *q;
-	const uint8_t *valid;
 	int P, ox, oy, edge; /* the block's first sample; 0 west, 1 north, 2 east, 3 south */
 };
 
@@ -25,39 +26,139 @@ static int32_t h(const struct strip *s, int along, int depth)
 	return s->q[(size_t)(y + 1) * (size_t)(s->P + 2) + (size_t)x + 1];
 }
 
-static int valid(const struct strip *s, int along, int depth)
-{
-	if (!s->valid)
-		return 1;
-	int x, y;
-	at(s, along, depth, &x, &y);
-	return s->valid[(size_t)y * (size_t)s->P + (size_t)x] != 0;
-}
-
-static float coarse_edge(const struct strip *s, int so)
+/* D against the column's square (either half) for rings at depth si. */
+static float coarse_edge(const struct strip *s, int so, int si)
 {
 	const int n = RELIEF_BLOCK_CELLS;
 	float worst = 0.0f;
 	for (int c0 = 0; c0 < n; c0 += so) {
-		if (!valid(s, c0, 0) || !valid(s, c0 + so, 0) || !valid(s, c0, so) || !valid(s, c0 + so, so))
-			continue;
 		const int32_t h00 = h(s, c0, 0);
 		const float dx = (float)(h(s, c0 + so, 0) - h00) / (float)so;
 		const float dy_lo = (float)(h(s, c0, so) - h00) / (float)so;
 		const float dy_hi = (float)(h(s, c0 + so, so) - h(s, c0 + so, 0)) / (float)so;
-		for (int si = 1; si < so; si *= 2) {
-			const int first = c0 > si ? c0 : si, last = c0 + so < n - si ? c0 + so : n - si;
-			for (int t = first; t <= last; t += si) {
-				if (t % si != 0 || !valid(s, t, si))
-					continue;
-				const int x = t - c0;
-				const float a = (float)(h(s, t, si) - h00) - dx * (float)x;
-				if (x + si <= so)
-					worst = fmaxf(worst, fabsf(a - dy_lo * (float)si));
-				if (x >= si)
-					worst = fmaxf(worst, fabsf(a - dy_hi * (float)si));
+		const int first = c0 > si ? c0 : si, last = c0 + so < n - si ? c0 + so : n - si;
+		for (int t = first; t <= last; t += si) {
+			const int x = t - c0;
+			const float a = (float)(h(s, t, si) - h00) - dx * (float)x;
+			if (x + si <= so)
+				worst = fmaxf(worst, fabsf(a - dy_lo * (float)si));
+			if (x >= si)
+				worst = fmaxf(worst, fabsf(a - dy_hi * (float)si));
+		}
+	}
+	return worst;
+}
+
+/* Adds the point on the side from p0 to p1 (along, depth) at s = num / den, where it
+ * crosses the line from l0 to l1. */
+static int add_point(struct relief_strip_point *out, int cap, int k, const int p0[2], const int p1[2], int l0a,
+                     int l0d, int l1a, int l1d, int num, int den)
+{
+	if (out && k < cap)
+		out[k] = (struct relief_strip_point){
+			.p0 = { (int8_t)p0[0], (int8_t)p0[1] },
+			.l0 = { (int8_t)l0a, (int8_t)l0d },
+			.p1 = { (int8_t)p1[0], (int8_t)p1[1] },
+			.l1 = { (int8_t)l1a, (int8_t)l1d },
+			.w0 = (float)((double)(den - num) / (double)den),
+			.w1 = (float)((double)num / (double)den),
+		};
+	return k + 1;
+}
+
+int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_point *out, int cap)
+{
+	const int n = RELIEF_BLOCK_CELLS;
+	int k = 0;
+	const int a[2] = { c0, 0 }, b[2] = { c0 + so, 0 };
+	/* The segment against the samples on it: the interior's triangulation follows them. */
+	for (int x = si; x < so; x += si)
+		k = add_point(out, cap, k, a, b, c0 + x, 0, c0 + x, 0, x, so);
+	/* Each side from an end of the segment to a ring vertex r: the point at s (0 < s < 1)
+	 * is at along x0 + s (t - x0), depth s si, and a cell side (vertical) or diagonal meets
+	 * it there with the same s as its own parameter from depth 0 to si; on both, the
+	 * interior's triangulation is linear from its foot to its top. */
+	const int first = c0 > si ? c0 : si, last = c0 + so < n - si ? c0 + so : n - si;
+	for (int t = first; t <= last; t += si)
+		for (int end = 0; end < 2; end++) {
+			const int *p0 = end ? b : a, x0 = p0[0], dx = t - x0;
+			const int r[2] = { t, si };
+			if (dx == 0)
+				continue; /* the side is a cell's side: no deviation */
+			for (int m = 0; m <= n; m += si) /* cell sides strictly between the ends */
+				if ((m - x0) * (t - m) > 0)
+					k = add_point(out, cap, k, p0, r, m, 0, m, si, m - x0, dx);
+			for (int c = 0; c + si <= n; c += si) {
+				/* diagonal from (c, 0) to (c + si, si): x0 + s dx - c = s si */
+				int num = c - x0, den = dx - si;
+				if (den != 0 && (double)num / den > 0 && (double)num / den < 1)
+					k = add_point(out, cap, k, p0, r, c, 0, c + si, si, num, den);
+				/* diagonal from (c + si, 0) to (c, si): c + si - (x0 + s dx) = s si */
+				num = c + si - x0;
+				den = dx + si;
+				if (den != 0 && (double)num / den > 0 && (double)num / den < 1)
+					k = add_point(out, cap, k, p0, r, c + si, 0, c, si, num, den);
 			}
 		}
+	return k;
+}
+
+/* The points of every column of every pair of levels (edge e = 1..4, interior i < e),
+ * listed once per relief_strip_bounds() call: points[e - 1][i] holds the columns' points
+ * in column order. */
+struct strip_points {
+	struct relief_strip_point *p[4][4];
+	int n[4][4];
+};
+
+static int strip_points_init(struct strip_points *sp)
+{
+	*sp = (struct strip_points){ 0 };
+	for (int e = 1; e <= 4; e++)
+		for (int i = 0; i < e; i++) {
+			const int so = 1 << e, si = 1 << i;
+			int n = 0;
+			for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += so)
+				n += relief_strip_interior_points(so, si, c0, NULL, 0);
+			if (n > 0 && !(sp->p[e - 1][i] = malloc(sizeof(struct relief_strip_point) * (size_t)n)))
+				return -1;
+			for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += so)
+				sp->n[e - 1][i] += relief_strip_interior_points(so, si, c0, sp->p[e - 1][i] + sp->n[e - 1][i],
+				                                                n - sp->n[e - 1][i]);
+		}
+	return 0;
+}
+
+static void strip_points_finish(struct strip_points *sp)
+{
+	for (int e = 0; e < 4; e++)
+		for (int i = 0; i < 4; i++)
+			free(sp->p[e][i]);
+}
+
+/* The largest deviation of a coarse-edge strip (segments 2^e) from the triangulation of
+ * an interior of cells 2^i, over the points relief_strip_interior_points() gives. */
+static float interior_edge(const struct strip *s, const struct strip_points *sp, int e, int i)
+{
+	float worst = 0.0f;
+	for (int k = 0; k < sp->n[e - 1][i]; k++) {
+		const struct relief_strip_point *p = &sp->p[e - 1][i][k];
+		const float d = p->w0 * (float)(h(s, p->p0[0], p->p0[1]) - h(s, p->l0[0], p->l0[1])) +
+		                p->w1 * (float)(h(s, p->p1[0], p->p1[1]) - h(s, p->l1[0], p->l1[1]));
+		worst = fmaxf(worst, fabsf(d));
+	}
+	return worst;
+}
+
+/* Half the largest twist of the cells in the first row along the edge (depth 0 to 1): at
+ * the finest level, how far the patch drawn at full resolution with either diagonal lies
+ * from the finest surface there, quanta. */
+static float first_row_eps(const struct strip *s)
+{
+	float worst = 0.0f;
+	for (int k = 0; k < RELIEF_BLOCK_CELLS; k++) {
+		const int32_t twist = h(s, k, 0) + h(s, k + 1, 1) - h(s, k + 1, 0) - h(s, k, 1);
+		worst = fmaxf(worst, 0.5f * (float)abs(twist));
 	}
 	return worst;
 }
@@ -67,9 +168,6 @@ static float fine_edge(const struct strip *s, int so)
 	const int n = RELIEF_BLOCK_CELLS, c = 2 * so;
 	float worst = 0.0f;
 	for (int c0 = 0; c0 < n; c0 += c) {
-		if (!valid(s, c0, 0) || !valid(s, c0 + so, 0) || !valid(s, c0 + c, 0) || !valid(s, c0, c) ||
-		    !valid(s, c0 + c, c))
-			continue;
 		const int32_t o = h(s, c0, 0);
 		const float m = (float)(h(s, c0 + so, 0) - o), cc = (float)(h(s, c0 + c, 0) - o);
 		const float a = (float)(h(s, c0, c) - o), b = (float)(h(s, c0 + c, c) - o);
@@ -83,20 +181,38 @@ static float fine_edge(const struct strip *s, int so)
 	return worst;
 }
 
-void relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const uint8_t *valid, float *out)
+int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps, bool finest, float *out)
 {
 	const uint32_t blocks = (P - 1) / RELIEF_BLOCK_CELLS;
-	struct strip s = { .q = q, .valid = valid, .P = (int)P };
+	struct strip s = { .q = q, .P = (int)P };
+	struct strip_points sp;
+	if (strip_points_init(&sp) < 0) {
+		strip_points_finish(&sp);
+		return -ENOMEM;
+	}
 	for (uint32_t b = 0; b < blocks * blocks; b++)
 		for (int e = 0; e < 4; e++) {
 			s.ox = (int)(b % blocks) * RELIEF_BLOCK_CELLS;
 			s.oy = (int)(b / blocks) * RELIEF_BLOCK_CELLS;
 			s.edge = e;
 			float *r = out + ((size_t)b * 4 + (size_t)e) * RELIEF_STRIP_FLOATS;
-			for (int l = 1; l <= 4; l++)
-				r[l - 1] = q2 * coarse_edge(&s, 1 << l);
+			const float *eb = eps + (size_t)b * 4;
+			/* eps_0 is known at the finest level only (the patch is the finest surface). */
+			const float e0 = finest ? q2 * first_row_eps(&s) : INFINITY;
+			for (int l = 1; l <= 4; l++) {
+				float charge = 0.0f;
+				for (int i = 0; i < l; i++) {
+					const float b1 = eb[l - 1] + q2 * coarse_edge(&s, 1 << l, 1 << i);
+					const float ei = i == 0 ? e0 : eb[i - 1];
+					const float b2 = isinf(ei) ? INFINITY : ei + q2 * interior_edge(&s, &sp, l, i);
+					charge = fmaxf(charge, fminf(b1, b2));
+				}
+				r[l - 1] = charge;
+			}
 			for (int l = 0; l <= 2; l++)
 				r[4 + l] = q2 * fine_edge(&s, 1 << l);
 			r[7] = 0.0f;
 		}
+	strip_points_finish(&sp);
+	return 0;
 }

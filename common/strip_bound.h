@@ -1,21 +1,51 @@
 /* Transition strip bounds: how far the tessellator's transition triangles along a block
- * edge can lie from the block's own triangulation of the square they lie in, from a
- * patch's samples alone (docs/lod.md, "Transition triangles: what bounds them").
+ * edge can lie from the finest surface, through the block's own triangulation of the
+ * square they lie in or the finer interior's, from a patch's samples and its block errors
+ * (docs/lod.md, "Transition triangles: what bounds them").
  * The decode computes them on the GPU (shaders/patch_strips.comp); this is its CPU twin,
  * the same arithmetic in the same order, for tests. Written by hand: the bound is this
  * project's own (the tessellator's strips are not something a library models). */
 #pragma once
 
+#include <stdbool.h>
 #include <stdint.h>
 
-/* Floats per block and edge: [0..3] an edge at level e = 1..4 (segments of 2^e samples)
- * against any finer interior, [4..6] an edge at level e = 0..2 against an interior one
- * level coarser, [7] 0; metres. */
+/* Floats per block and edge, metres:
+ * [0..3] for an edge at level e = 1..4 (segments of 2^e samples), the charge of any
+ *        coarse-edge strip along it against any finer interior: at most this far from the
+ *        finest surface (the larger of it and the block's eps_e bounds the edge's level);
+ * [4..6] for an edge at level e = 0..2 against an interior one level coarser, D (to add to
+ *        the interior level's eps);
+ * [7]    0. */
 #define RELIEF_STRIP_FLOATS 8
+
+/* One point where a coarse-edge strip triangle may deviate most from the triangulation of
+ * a finer interior (cells of si samples): its deviation there is
+ *     w0 (h(p0) - h(l0)) + w1 (h(p1) - h(l1)),
+ * h(s) the height of sample s = (along the edge, depth in from it); p0 and p1 the ends of a
+ * side of the triangle, l0 and l1 those of a side or diagonal of the interior's cells where
+ * it crosses that side (or p0 = A, p1 = B, the edge segment's ends, l0 = l1 a sample on
+ * it). shaders/strip_terms_gen.c writes the same points into the shader, so both sides
+ * compute them with the same weights. */
+struct relief_strip_point {
+	int8_t p0[2], l0[2], p1[2], l1[2];
+	float w0, w1;
+};
+
+/* The points of the column from along c0 to c0 + so (segments of so samples, a power of
+ * two up to RELIEF_BLOCK_CELLS) against an interior of cells of si < so samples: along the
+ * segment, the samples between its ends; along each side from an end of the segment to a
+ * ring vertex (at depth si, every si along, inset by si from the block's ends), where it
+ * crosses a side or either diagonal of a cell. Writes at most `cap` of them to out (may be
+ * NULL with cap 0); returns how many there are. */
+int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_point *out, int cap);
 
 /* The bounds of every block of a P-sample patch: `q` its quantised heights with the ring,
  * (P + 2)^2 in raster order (sample (x, y) at (y + 1) (P + 2) + x + 1), q2 metres per
- * quantum, `valid` P^2 bytes (0: no-data) or NULL (all valid). Writes blocks^2 x 4 x
- * RELIEF_STRIP_FLOATS floats to out: blocks in raster order, edges west, north, east,
- * south. A point whose samples include a no-data one is left out. */
-void relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const uint8_t *valid, float *out);
+ * quantum, `eps` each block's errors eps_1..eps_4 as the file stores them (blocks^2 x 4
+ * floats, relief_file_block_errors()), `finest`: the patch is at the file's finest level.
+ * Writes blocks^2 x 4 x RELIEF_STRIP_FLOATS floats to out: blocks in raster order, edges
+ * west, north, east, south. No-data samples count with their decoded heights: a strip
+ * triangle with a no-data corner still draws wherever its nearest sample is valid.
+ * Returns 0, or -ENOMEM. */
+int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps, bool finest, float *out);

@@ -39,6 +39,7 @@ struct Job {
 	int P;          // samples per side
 	uint mask;      // normals pass: staging offset of the validity bytes, ~0u: all valid
 	float q2, inv_2sx, inv_2sy; // normals pass
+	int finest;     // strips pass
 };
 layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
 layout(push_constant) uniform Push { uint first_job; } push;

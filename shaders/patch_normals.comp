@@ -30,6 +30,7 @@ struct Job {
 	float q2;      // metres per quantum at the patch's level (2 delta_l)
 	float inv_2sx; // 1 / (2 x spacing) at the patch's level, 1/m
 	float inv_2sy;
+	int finest;    // strips pass
 };
 layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
 layout(push_constant) uniform Push { uint first_job; } push;

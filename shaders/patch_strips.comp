@@ -6,23 +6,27 @@
 // segment and the interior's cell (checked on every captured frame by test_lod_mesh).
 // Such a triangle T is then within D(T) + eps_c of the finest surface, where eps_c, the
 // block's stored error at Q's level, bounds either triangulation L of Q, and D(T) is the
-// largest |T - L| on T, which the patch's own samples give. Per block and edge (west,
-// north, east, south) this pass stores, in metres:
-// [0..3] for an edge at level e = 1..4 (segments of 2^e samples) against any finer
-//        interior: the largest D of any triangle such a strip can hold;
+// largest |T - L| on T, which the patch's own samples give. A coarse-edge strip's T is
+// also within D_i(T) + eps_i, with L_i the finer interior's triangulation (cells of 2^i):
+// its corners are L_i's vertices, and D_i(T), the largest |T - L_i| on T, again comes from
+// the samples. Per block and edge (west, north, east, south) this pass stores, in metres:
+// [0..3] for an edge at level e = 1..4 (segments of 2^e samples), the charge of its
+//        coarse-edge strips: over every finer interior level i, the smaller of the two
+//        bounds (eps_0, the full resolution's, is known at the file's finest level only:
+//        half the largest twist of the edge's first row of cells);
 // [4..6] for an edge at level e = 0..2 against an interior one level coarser (e = 2 and an
-//        inner factor of 2 is a fan from the block's centre): likewise;
+//        inner factor of 2 is a fan from the block's centre): D;
 // [7]    0.
-// The LOD adds eps_c and projects the sum (terrain_factors.glsl). A point whose samples
-// include a no-data one is left out (nothing is drawn there). Heights are read in quanta
-// and differenced as integers before any rounding.
+// The LOD projects them (terrain_factors.glsl). No-data samples count with their decoded
+// heights: a triangle with a no-data corner still draws wherever its nearest sample is
+// valid (leaving such points out let a fan at Mont Blanc's raster edge pass tau). Heights
+// are read in quanta and differenced as integers before any rounding.
 #extension GL_GOOGLE_include_directive : require
 #include "block_record.glsl"
 
 layout(local_size_x = 64) in;
 
 layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
-layout(binding = 2, r32i) uniform readonly iimageBuffer staging; // texels: see patch_decode.comp
 
 struct Job {
 	int layer;
@@ -33,9 +37,12 @@ struct Job {
 	uint mask; // staging int offset of the patch's validity bytes, or ~0u: all valid
 	float q2;  // metres per quantum at the patch's level
 	float inv_2sx, inv_2sy;
+	int finest; // 1: the patch is at the file's finest level
 };
 layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
-layout(std430, binding = 5) writeonly buffer Records { float rec[]; };
+// The layers' block records: the file's part (copied before this pass) is read, the strip
+// bounds' part written.
+layout(std430, binding = 5) buffer Records { float rec[]; };
 layout(push_constant) uniform Push { uint first_job; } push;
 Job pc;
 ivec2 origin; // the block's first sample
@@ -51,23 +58,27 @@ ivec2 at(int along, int depth)
 
 int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(along, depth) + 1, pc.layer)).x; }
 
-bool sample_valid(int along, int depth)
-{
-	if (pc.mask == ~0u)
-		return true;
-	ivec2 s = at(along, depth);
-	uint i = uint(s.y * pc.P + s.x);
-	return ((uint(imageLoad(staging, int(pc.mask + i / 4u)).x) >> (8u * (i % 4u))) & 0xffu) != 0u;
-}
-
 // The bounds, written out term by term by shaders/strip_terms_gen.c at build time (it says
 // why); what they compute, for an edge with segments of `so` samples:
 //
-// coarse_edge_<so>: coarse-edge strips against any finer interior: every ring vertex v
-// (at depth si < so, si a power of two, every si along, inset by si at both ends) against
-// each half of its column's square that touches the edge and holds v; a triangle of such
-// a strip lies in one of those halves (the ring is at most so / 2 deep), where T - L is
-// linear and vanishes at the edge's vertices, so |T - L| peaks at a ring vertex.
+// coarse_edge_<so>_<si>: coarse-edge strips against an interior of cells si < so (a
+// power of two): every ring vertex v (at depth si, every si along, inset by si at both
+// ends) against each half of its column's square that touches the edge and holds v; a
+// triangle of such a strip lies in one of those halves (the ring is at most so / 2 deep),
+// where T - L is linear and vanishes at the edge's vertices, so |T - L| peaks at a ring
+// vertex.
+//
+// interior_edge_<so>_<si>: the same strips against the interior's own triangulation L_i,
+// either diagonal in every cell: T spans one row of its cells (depth 0 to si), and T - L_i
+// is linear on each piece of T that the cells' sides and diagonals cut, so it peaks at the
+// cuts on T's sides (relief_strip_interior_points() lists them) or at the samples on the
+// edge segment.
+//
+// first_row_eps: half the largest twist of the cells from depth 0 to 1; at the finest
+// level, how far the full resolution with either diagonal lies from the finest surface
+// where strips against it are drawn.
+//
+// strip_charges: their combination per level (relief_strip_bounds()).
 //
 // fine_edge_<so>: fine-edge strips (and fans) against an interior of cells of c = 2 so:
 // per column square Q of side c, the triangles joining an edge segment to a corner of Q's
@@ -92,10 +103,14 @@ void main()
 		edge = int(i % 4u);
 		uint base = block_strip_index(pc.layer, bl, uint(edge), blocks);
 		strip_load();
-		rec[base + 0u] = pc.q2 * coarse_edge_2();
-		rec[base + 1u] = pc.q2 * coarse_edge_4();
-		rec[base + 2u] = pc.q2 * coarse_edge_8();
-		rec[base + 3u] = pc.q2 * coarse_edge_16();
+		uint ei = block_eps_index(pc.layer, bl, blocks);
+		vec4 eps = vec4(rec[ei], rec[ei + 1u], rec[ei + 2u], rec[ei + 3u]);
+		float e0 = pc.finest != 0 ? pc.q2 * first_row_eps() : uintBitsToFloat(0x7f800000u);
+		vec4 charge = strip_charges(eps, e0, pc.q2);
+		rec[base + 0u] = charge.x;
+		rec[base + 1u] = charge.y;
+		rec[base + 2u] = charge.z;
+		rec[base + 3u] = charge.w;
 		rec[base + 4u] = pc.q2 * fine_edge_1();
 		rec[base + 5u] = pc.q2 * fine_edge_2();
 		rec[base + 6u] = pc.q2 * fine_edge_4();

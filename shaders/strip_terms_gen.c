@@ -12,13 +12,20 @@
  * constant operands. The expressions are the twin's, term for term, so that the results
  * are bit-exact with it (test_patch_cache compares them).
  *
- * Usage: relief-strip-terms-gen OUT.glsl. Depends on nothing but the C library. */
+ * The points where a strip may deviate most from a finer interior's triangulation come
+ * from relief_strip_interior_points() (common/strip_bound.c), which the twin uses too.
+ *
+ * Usage: relief-strip-terms-gen OUT.glsl. */
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
-#define N 16 /* BLOCK_CELLS of shaders/block_record.glsl, RELIEF_BLOCK_CELLS of common/layout.h */
+#include "layout.h"
+#include "strip_bound.h"
+
+#define N RELIEF_BLOCK_CELLS /* BLOCK_CELLS of shaders/block_record.glsl */
 
 static bool used[N + 1][N + 1]; /* [depth][along]: a sample some term reads */
 
@@ -47,44 +54,94 @@ static const char *smp(int along, int depth)
 	return b;
 }
 
-static const char *val(int along, int depth)
+/* The twin's coarse_edge(so, si), unrolled. */
+static void coarse_edge(int so, int si)
 {
-	static char buf[8][24];
-	static int next;
-	char *b = buf[next++ % 8];
-	used[depth][along] = true;
-	snprintf(b, sizeof buf[0], "v%d_%d", depth, along);
-	return b;
-}
-
-/* The twin's coarse_edge(so), unrolled. */
-static void coarse_edge(int so)
-{
-	emit("float coarse_edge_%d()\n{\n\tfloat worst = 0.0;\n", so);
+	emit("float coarse_edge_%d_%d()\n{\n\tfloat worst = 0.0;\n", so, si);
 	for (int c0 = 0; c0 < N; c0 += so) {
-		emit("\tif (%s && %s && ", val(c0, 0), val(c0 + so, 0));
-		emit("%s && %s) {\n", val(c0, so), val(c0 + so, so));
-		emit("\t\tint h00 = %s;\n", smp(c0, 0));
+		emit("\t{\n\t\tint h00 = %s;\n", smp(c0, 0));
 		emit("\t\tfloat dx = float(%s - h00) / %d.0;\n", smp(c0 + so, 0), so);
 		emit("\t\tfloat dy_lo = float(%s - h00) / %d.0;\n", smp(c0, so), so);
 		emit("\t\tfloat dy_hi = float(%s - ", smp(c0 + so, so));
 		emit("%s) / %d.0;\n", smp(c0 + so, 0), so);
-		for (int si = 1; si < so; si *= 2) {
-			const int first = c0 > si ? c0 : si, last = c0 + so < N - si ? c0 + so : N - si;
-			for (int t = first; t <= last; t += si) {
-				const int x = t - c0;
-				emit("\t\tif (%s) {\n", val(t, si));
-				emit("\t\t\tfloat a = float(%s - h00) - dx * %d.0;\n", smp(t, si), x);
-				if (x + si <= so)
-					emit("\t\t\tworst = max(worst, abs(a - dy_lo * %d.0));\n", si);
-				if (x >= si)
-					emit("\t\t\tworst = max(worst, abs(a - dy_hi * %d.0));\n", si);
-				emit("\t\t}\n");
-			}
+		const int first = c0 > si ? c0 : si, last = c0 + so < N - si ? c0 + so : N - si;
+		for (int t = first; t <= last; t += si) {
+			const int x = t - c0;
+			emit("\t\t{\n\t\t\tfloat a = float(%s - h00) - dx * %d.0;\n", smp(t, si), x);
+			if (x + si <= so)
+				emit("\t\t\tworst = max(worst, abs(a - dy_lo * %d.0));\n", si);
+			if (x >= si)
+				emit("\t\t\tworst = max(worst, abs(a - dy_hi * %d.0));\n", si);
+			emit("\t\t}\n");
 		}
 		emit("\t}\n");
 	}
 	emit("\treturn worst;\n}\n\n");
+}
+
+/* A float as a GLSL literal that reads back as the same float. */
+static const char *literal(float v)
+{
+	static char buf[4][40];
+	static int next;
+	char *b = buf[next++ % 4];
+	snprintf(b, sizeof buf[0], "%.9g", (double)v);
+	if (!strpbrk(b, ".eEn"))
+		strcat(b, ".0");
+	return b;
+}
+
+/* The twin's interior_edge(so, si), unrolled: the points of relief_strip_interior_points(). */
+static void interior_edge(int so, int si)
+{
+	static struct relief_strip_point pts[4096];
+	emit("float interior_edge_%d_%d()\n{\n\tfloat worst = 0.0;\n", so, si);
+	for (int c0 = 0; c0 < N; c0 += so) {
+		const int np = relief_strip_interior_points(so, si, c0, pts, 4096);
+		if (np > 4096) {
+			fprintf(stderr, "strip terms: %d points in a column\n", np);
+			exit(1);
+		}
+		for (int i = 0; i < np; i++) {
+			const struct relief_strip_point *p = &pts[i];
+			emit("\t{\n\t\tprecise float d = %s * float(%s - ", literal(p->w0), smp(p->p0[0], p->p0[1]));
+			emit("%s) + ", smp(p->l0[0], p->l0[1]));
+			emit("%s * float(%s - ", literal(p->w1), smp(p->p1[0], p->p1[1]));
+			emit("%s);\n\t\tworst = max(worst, abs(d));\n\t}\n", smp(p->l1[0], p->l1[1]));
+		}
+	}
+	emit("\treturn worst;\n}\n\n");
+}
+
+/* The twin's first_row_eps(), unrolled. */
+static void first_row_eps(void)
+{
+	emit("float first_row_eps()\n{\n\tfloat worst = 0.0;\n");
+	for (int k = 0; k < N; k++) {
+		emit("\tworst = max(worst, 0.5 * float(abs(%s + %s - ", smp(k, 0), smp(k + 1, 1));
+		emit("%s - %s)));\n", smp(k + 1, 0), smp(k, 1));
+	}
+	emit("\treturn worst;\n}\n\n");
+}
+
+/* The twin's combination in relief_strip_bounds(): the charge of an edge at levels 1..4
+ * from the block's errors eps_1..eps_4 (eps), eps_0 (e0, infinite where unknown) and the
+ * metres per quantum q2. */
+static void charges(void)
+{
+	emit("vec4 strip_charges(vec4 eps, float e0, float q2)\n{\n\tvec4 charge = vec4(0.0);\n"
+	     "\tconst float inf = uintBitsToFloat(0x7f800000u);\n");
+	for (int l = 1; l <= 4; l++)
+		for (int i = 0; i < l; i++) {
+			emit("\t{\n\t\tprecise float b1 = eps[%d] + q2 * coarse_edge_%d_%d();\n", l - 1, 1 << l, 1 << i);
+			if (i == 0)
+				emit("\t\tfloat ei = e0;\n");
+			else
+				emit("\t\tfloat ei = eps[%d];\n", i - 1);
+			emit("\t\tprecise float b2 = isinf(ei) ? inf : ei + q2 * interior_edge_%d_%d();\n", 1 << l, 1 << i);
+			emit("\t\tcharge[%d] = max(charge[%d], min(b1, b2));\n\t}\n", l - 1, l - 1);
+		}
+	emit("\treturn charge;\n}\n\n");
 }
 
 /* The twin's fine_edge(so), unrolled. */
@@ -93,9 +150,7 @@ static void fine_edge(int so)
 	const int c = 2 * so;
 	emit("float fine_edge_%d()\n{\n\tfloat worst = 0.0;\n", so);
 	for (int c0 = 0; c0 < N; c0 += c) {
-		emit("\tif (%s && %s && %s && ", val(c0, 0), val(c0 + so, 0), val(c0 + c, 0));
-		emit("%s && %s) {\n", val(c0, c), val(c0 + c, c));
-		emit("\t\tint o = %s;\n", smp(c0, 0));
+		emit("\t{\n\t\tint o = %s;\n", smp(c0, 0));
 		emit("\t\tfloat m = float(%s - o), cc = float(%s - o);\n", smp(c0 + so, 0), smp(c0 + c, 0));
 		emit("\t\tfloat a = float(%s - o), b = float(%s - o);\n", smp(c0, c), smp(c0 + c, c));
 		emit("\t\tfloat mid = abs(m - 0.5 * cc);\n\t\tworst = max(worst, mid);\n");
@@ -110,7 +165,12 @@ static void fine_edge(int so)
 static void terms(void)
 {
 	for (int so = 2; so <= N; so *= 2)
-		coarse_edge(so);
+		for (int si = 1; si < so; si *= 2) {
+			coarse_edge(so, si);
+			interior_edge(so, si);
+		}
+	first_row_eps();
+	charges();
 	for (int so = 1; so <= 4; so *= 2)
 		fine_edge(so);
 }
@@ -127,22 +187,21 @@ int main(int argc, char **argv)
 		return 1;
 	}
 	emit("// Generated by shaders/strip_terms_gen.c at build time: do not edit.\n"
-	     "// The samples the strip bounds of one block edge read (h<depth>_<along>, in quanta)\n"
-	     "// and their validity, loaded once by strip_load() through sample_height() and\n"
-	     "// sample_valid(), which patch_strips.comp defines; then the bounds.\n");
+	     "// The samples the strip bounds of one block edge read (h<depth>_<along>, in quanta),\n"
+	     "// loaded once by strip_load() through sample_height(), which patch_strips.comp\n"
+	     "// defines; then the bounds.\n");
 	int loads = 0;
 	for (int d = 0; d <= N; d++)
 		for (int a = 0; a <= N; a++)
 			if (used[d][a]) {
-				emit("int h%d_%d;\nbool v%d_%d;\n", d, a, d, a);
+				emit("int h%d_%d;\n", d, a);
 				loads++;
 			}
 	emit("\n// %d samples\nvoid strip_load()\n{\n", loads);
 	for (int d = 0; d <= N; d++)
 		for (int a = 0; a <= N; a++)
 			if (used[d][a])
-				emit("\th%d_%d = sample_height(%d, %d);\n\tv%d_%d = sample_valid(%d, %d);\n", d, a, a, d, d, a,
-				     a, d);
+				emit("\th%d_%d = sample_height(%d, %d);\n", d, a, a, d);
 	emit("}\n\n");
 	terms();
 	if (fclose(out) != 0) {

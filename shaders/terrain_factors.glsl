@@ -41,22 +41,24 @@ vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec
 // Transition strips (docs/lod.md, "Transition triangles: what bounds them"): where an
 // edge's factor differs from the interior's, the tessellator's triangles along it are
 // within eps_c + D of the finest surface, c the level of the column square they lie in and
-// D what patch_strips.comp computed from the samples. Edge `edge`: 0 west, 1 north, 2 east,
-// 3 south (the outer factors' order); side (0 north, 1 south, 2 west, 3 east) to edge:
+// D what patch_strips.comp computed from the samples; along an edge coarser than the
+// interior, also within eps_i + D_i, i the interior's level, and the decode stored the
+// smaller (the edge's charge). Edge `edge`: 0 west, 1 north, 2 east, 3 south (the outer
+// factors' order); side (0 north, 1 south, 2 west, 3 east) to edge:
 uint edge_of_side(uint side) { return side == 0u ? 1u : side == 1u ? 3u : side == 2u ? 0u : 2u; }
 
 // Whether the strips are bounded: unless the view asks otherwise (MODE_LOOSE_STRIPS).
 bool strips_bounded() { return (pc.mode & MODE_LOOSE_STRIPS) == 0u; }
 
 // The errors an edge of block bl at each level d = 1..4 must keep within tau: the block's
-// eps_d (non-decreasing, `eps`) plus the largest D of a strip along it against any finer
-// interior, whatever the interior turns out to be; made non-decreasing again.
+// eps_d (non-decreasing, `eps`), or the charge of a strip along it against any finer
+// interior, whatever the interior turns out to be, if larger; made non-decreasing again.
 vec4 edge_eps_at(int layer, ivec2 bl, uint edge, vec4 eps)
 {
 	if (!strips_bounded())
 		return eps;
 	uint i = block_strip_index(layer, bl, edge, pc.blocks);
-	vec4 e = eps + vec4(block_err[i], block_err[i + 1u], block_err[i + 2u], block_err[i + 3u]);
+	vec4 e = max(eps, vec4(block_err[i], block_err[i + 1u], block_err[i + 2u], block_err[i + 3u]));
 	e.y = max(e.x, e.y);
 	e.z = max(e.y, e.z);
 	e.w = max(e.z, e.w);

@@ -25,8 +25,9 @@ struct job_params {
 	int32_t mode, P;
 	uint32_t mask;
 	float q2, inv_2sx, inv_2sy;
+	int32_t finest; /* 1: the patch is at the file's finest level (strips pass) */
 };
-_Static_assert(sizeof(struct job_params) == 48, "job record");
+_Static_assert(sizeof(struct job_params) == 52, "job record");
 
 struct request {
 	float prio;

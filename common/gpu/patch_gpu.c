@@ -318,6 +318,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 			.q2 = (float)(2.0 * lay->delta[l]),
 			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
 			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
+			.finest = l + 1 == lay->levels,
 		};
 	}
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);

@@ -171,7 +171,7 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 				}
 			free(twin);
 			/* The strip bounds (patch_strips.comp) against their CPU twin (strip_bound.c). */
-			relief_strip_bounds(cpu, P, (float)q2, mask, cpu_strips);
+			assert_int_equal(relief_strip_bounds(cpu, P, (float)q2, cpu_e, l + 1 == lay->levels, cpu_strips), 0);
 			for (size_t k = 0; k < nstrip; k++) {
 				const double g = gpu_e[nrec + k], cs = cpu_strips[k];
 				strip_diff = fmax(strip_diff, fabs(g - cs) / fmax(1.0, fabs(cs)));
