@@ -8,9 +8,10 @@
  * local and indexing the locals by loop counters needs the loops unrolled, which neither
  * glslang nor lavapipe's compiler does here (a CPU implementation then indexes such an
  * array lane by lane, slower than the loads it saves). So this program unrolls them: it
- * writes one local per sample a bound reads (about 50 loads an edge) and every term with
- * constant operands. The expressions are the twin's, term for term, so that the results
- * are bit-exact with it (test_patch_cache compares them).
+ * writes one local per sample a bound reads (53 loads an edge) and every term with
+ * constant operands (about 1,600 terms an edge, most of them the interior's). The
+ * expressions are the twin's, term for term, so that the results are bit-exact with it
+ * (test_patch_cache compares them).
  *
  * The points where a strip may deviate most from a finer interior's triangulation come
  * from relief_strip_interior_points() (common/strip_bound.c), which the twin uses too.
