@@ -27,23 +27,7 @@ layout(binding = 0, r32i) uniform iimage2DArray heights;
 layout(binding = 2, r32i) uniform readonly iimageBuffer staging;
 layout(std430, binding = 3) buffer Flags { uint flags[]; } fl;
 
-// One dispatch decodes a whole batch: workgroup z is the job (patch) index.
-struct Job {
-	int child_layer;
-	int parent_layer;
-	int quadrant;   // bit 0 east, bit 1 south
-	int ratio;      // k
-	uint slot;      // first int of the staging slot
-	uint flag;      // index into flags
-	int mode;       // 0 decode from parent, 1 copy values (root), 2 nothing (warm-up)
-	int P;          // samples per side
-	uint mask;      // normals pass: staging offset of the validity bytes, ~0u: all valid
-	float q2, inv_2sx, inv_2sy; // normals pass
-	int finest;     // strips pass
-};
-layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
-layout(push_constant) uniform Push { uint first_job; } push;
-Job pc;
+#include "patch_job.glsl"
 
 const int Q_MAX = 1 << 26;
 
@@ -75,7 +59,7 @@ void put(int x, int y, int q)
 		return;
 	if (q < -Q_MAX || q > Q_MAX)
 		set_flag();
-	imageStore(heights, ivec3(x + 1, y + 1, pc.child_layer), ivec4(q));
+	imageStore(heights, ivec3(x + 1, y + 1, pc.layer), ivec4(q));
 }
 
 int residual(uint index)
@@ -122,8 +106,7 @@ void decode_quad(int ex, int ey, int r00, int r10, int r01, int r11)
 
 void main()
 {
-	pc = jobs[push.first_job + gl_WorkGroupID.z];
-	if (pc.mode == 2)
+	if (!job_begin())
 		return;
 	int quads = (pc.P + 3) >> 1; // ex = -2, 0, ..., P-1
 	int segs = (quads + SEG - 1) / SEG; // per row of quads

@@ -18,23 +18,7 @@ layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 1, r32ui) uniform writeonly uimage2DArray normals;
 layout(binding = 2, r32i) uniform readonly iimageBuffer staging; // texels: see patch_decode.comp
 
-// One dispatch per batch: workgroup z is the job; the job record is shared with
-// patch_decode.comp.
-struct Job {
-	int layer;     // the patch's layer (child_layer in the decode pass)
-	int parent_layer, quadrant, ratio;
-	uint slot, flag;
-	int mode;      // 2: nothing to do (warm-up)
-	int P;
-	uint mask;     // staging int offset of the patch's validity bytes, or ~0u: all valid
-	float q2;      // metres per quantum at the patch's level (2 delta_l)
-	float inv_2sx; // 1 / (2 x spacing) at the patch's level, 1/m
-	float inv_2sy;
-	int finest;    // strips pass
-};
-layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
-layout(push_constant) uniform Push { uint first_job; } push;
-Job pc;
+#include "patch_job.glsl"
 
 const int ROWS = 4, COLS = 8; // ROWS == 4: a column is an ivec4
 
@@ -61,8 +45,7 @@ float validity(int x, int y)
 
 void main()
 {
-	pc = jobs[push.first_job + gl_WorkGroupID.z];
-	if (pc.mode == 2)
+	if (!job_begin())
 		return;
 	int blocks = (pc.P + ROWS - 1) / ROWS, segs = (pc.P + COLS - 1) / COLS;
 	int first, end;

@@ -28,23 +28,10 @@ layout(local_size_x = 64) in;
 
 layout(binding = 0, r32i) uniform readonly iimage2DArray heights;
 
-struct Job {
-	int layer;
-	int parent_layer, quadrant, ratio;
-	uint slot, flag;
-	int mode; // 2: nothing to do (warm-up)
-	int P;
-	uint mask; // staging int offset of the patch's validity bytes, or ~0u: all valid
-	float q2;  // metres per quantum at the patch's level
-	float inv_2sx, inv_2sy;
-	int finest; // 1: the patch is at the file's finest level
-};
-layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
+#include "patch_job.glsl"
 // The layers' block records: the file's part (copied before this pass) is read, the strip
 // bounds' part written.
 layout(std430, binding = 5) buffer Records { float rec[]; };
-layout(push_constant) uniform Push { uint first_job; } push;
-Job pc;
 ivec2 origin; // the block's first sample
 int edge;     // 0 west, 1 north, 2 east, 3 south
 
@@ -92,8 +79,7 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 
 void main()
 {
-	pc = jobs[push.first_job + gl_WorkGroupID.z];
-	if (pc.mode == 2)
+	if (!job_begin())
 		return;
 	uint blocks = uint(pc.P - 1) / BLOCK_CELLS, items = blocks * blocks * 4u;
 	for (uint i = gl_LocalInvocationID.x; i < items; i += gl_WorkGroupSize.x) {

@@ -18,7 +18,7 @@
  * (shaders/patch_run.glsl): four per lane. */
 #define RUN_ITEMS 256u
 
-/* Twin of `Job` in shaders/patch_decode.comp and patch_normals.comp (std430). */
+/* Twin of `Job` in shaders/patch_job.glsl (std430), read by the three patch passes. */
 struct job_params {
 	int32_t layer, parent_layer, quadrant, ratio;
 	uint32_t slot, flag;
