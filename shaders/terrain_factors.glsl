@@ -173,7 +173,7 @@ uint morph_byte(vec4 eps, int d, float allowed)
 // is within tau (0: full detail), its factor 16 / 2^d, and its morph byte: eps_d at most
 // the least allowed_error() of the points, worked out once per point (until December 2026
 // each level's segment was projected at each point, which took the factor pass about a
-// fifth longer at tau = 1 for the same levels).
+// fifth longer at tau = 1; the same inequality, rounded differently).
 float error_factor(vec4 c[3], int n, vec4 eps, out uint morph)
 {
 	float allowed = 1.0 / 0.0;
