@@ -74,6 +74,12 @@ double relief_view_kappa(const struct relief_view *v)
 	return 0.5 * v->height / tan(0.5 * v->fovy);
 }
 
+double relief_view_error_kappa(const struct relief_view *v)
+{
+	const double t = tan(0.5 * v->fovy), aspect = (double)v->width / (double)v->height;
+	return relief_view_kappa(v) * (1.0 + t * t * (1.0 + aspect * aspect));
+}
+
 void relief_view_origin(const struct relief_file *f, const struct relief_view *v, struct relief_view_origin *o)
 {
 	double gx = (v->eye.x - f->hdr.origin_x) / f->hdr.spacing_x;
@@ -257,7 +263,7 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 {
 	struct relief_view_origin o;
 	relief_view_origin(f, v, &o);
-	const float kappa = (float)relief_view_kappa(v), tau = (float)(v->tau * RELIEF_LOD_COARSE_SHARE);
+	const float kappa = (float)relief_view_error_kappa(v), tau = (float)(v->tau * RELIEF_LOD_COARSE_SHARE);
 	const struct relief_layout *lay = &f->layout;
 	float vp[16];
 	relief_view_matrix(v, vp);

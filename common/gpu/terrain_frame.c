@@ -60,7 +60,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		.frac = { (float)o.frac_x, (float)o.frac_y },
 		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
 		.cam_z = (float)o.z,
-		.kappa = (float)relief_view_kappa(lod),
+		.kappa = (float)relief_view_error_kappa(lod),
 		/* relief's own method leaves part of tau to the tessellator (lod.h); the baselines'
 		 * selections use the whole value they are given. */
 		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : lod->tau) *

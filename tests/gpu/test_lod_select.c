@@ -425,7 +425,7 @@ static void test_requests_look_ahead(void **state)
 	const struct { double eye[3], at[3]; } poses[] = {
 		{ { 100000, 50000, 5500 }, { 128480, 79200, 3000 } },   /* towards Mt Rainier */
 		{ { 5000, 5000, 400 }, { 160000, 150000, 100 } },       /* grazing, low */
-		{ { 150000, 20000, 2500 }, { 140000, 40000, 1000 } },   /* elsewhere: part of the tree there */
+		{ { 20000, 150000, 2500 }, { 40000, 140000, 1000 } },   /* elsewhere: part of the tree there */
 	};
 	uint64_t frame = 1;
 	for (size_t p = 0; p < sizeof(poses) / sizeof(poses[0]); p++) {
@@ -787,7 +787,7 @@ static uint32_t finest_drawn(const struct scene *s, struct relief_terrain_view *
 static void test_near_detail_takes_layers(void **state)
 {
 	const struct pose poses[] = {
-		{ { -30000, 80000, 25000 }, { 80000, 80000, 0 } },    /* high above the west edge */
+		{ { -30000, 80000, 50000 }, { 80000, 80000, 0 } },    /* high above the west edge */
 		{ { 125000, 76000, 3200 }, { 128480, 79200, 4000 } }, /* low, by Mt Rainier */
 	};
 	struct relief_view views[2] = { pose_view(&poses[0]), pose_view(&poses[1]) };
