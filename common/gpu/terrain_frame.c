@@ -60,9 +60,10 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		.frac = { (float)o.frac_x, (float)o.frac_y },
 		.spacing = { (float)f->hdr.spacing_x, (float)f->hdr.spacing_y },
 		.cam_z = (float)o.z,
-		.kappa = (float)relief_view_error_kappa(lod),
-		/* relief's own method leaves part of tau to the tessellator (lod.h); the baselines'
-		 * selections use the whole value they are given. */
+		/* relief's own method bounds a patch's error anywhere in the frustum and leaves part
+		 * of tau to the tessellator (lod.h); the baselines' selections use the paper's
+		 * kappa (the view axis) and the whole value they are given. */
+		.kappa = (float)(opts->fine == RELIEF_FINE_ERRORS ? relief_view_error_kappa(lod) : relief_view_kappa(lod)),
 		.tau = (float)((opts->select_tau > 0 ? opts->select_tau : lod->tau) *
 		               (opts->fine == RELIEF_FINE_ERRORS ? RELIEF_LOD_COARSE_SHARE : 1.0)),
 		.frame = (uint32_t)frame,
