@@ -7,7 +7,7 @@ layout(push_constant) uniform Push {
 	ivec2 cell;       // camera's finest sample cell
 	vec2 frac;        // and its fraction
 	vec2 spacing;     // finest spacing, metres
-	float cam_z, kappa, tau; // kappa: relief_view_error_kappa() (common/lod.h)
+	float cam_z, kappa, tau; // kappa: relief_view_error_kappa(), the baselines' relief_view_kappa() (common/lod.h)
 	uint frame;
 	uint level;       // lod_select.comp: the level this dispatch visits
 	uint levels, P, want_cap;
