@@ -138,11 +138,10 @@ static void test_mesh_within_tau_cliffs(void **state)
 	mesh_within_tau(&b, "cliffs", cliffs_poses, CLIFFS_POSES, taus, 2);
 }
 
-/* A driving simulator's camera: 2 m above a finest sample of the decoded surface (so the
- * eye is above what any level draws there only where that level is exact), near plane at
- * 0.5 m, looking 3 km ahead and 100 m down. The bound has to hold for the terrain right
- * under the eye and out to the horizon. Heights come from the scene's finest level, so the
- * poses follow the packed data. */
+/* A driving simulator's camera: 2 m above a finest sample of the decoded surface, near
+ * plane at 0.5 m, looking 3 km ahead and 100 m down. The bound has to hold for the terrain
+ * right under the eye and out to the horizon. Heights come from the scene's finest level,
+ * so the poses follow the packed data. */
 static void driving_poses(const struct bound_scene *b, const double xy[][4], size_t n, struct pose *out)
 {
 	const struct relief_header *h = &b->s.f->hdr;
