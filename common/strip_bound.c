@@ -26,6 +26,13 @@ static int32_t h(const struct strip *s, int along, int depth)
 	return s->q[(size_t)(y + 1) * (size_t)(s->P + 2) + (size_t)x + 1];
 }
 
+void relief_strip_ring(int c0, int so, int si, int *first, int *last)
+{
+	const int n = RELIEF_BLOCK_CELLS;
+	*first = c0 > si ? c0 : si;
+	*last = c0 + so < n - si ? c0 + so : n - si;
+}
+
 /* D against the column's square (either half) for rings at depth si. */
 static float coarse_edge(const struct strip *s, int so, int si)
 {
@@ -36,7 +43,8 @@ static float coarse_edge(const struct strip *s, int so, int si)
 		const float dx = (float)(h(s, c0 + so, 0) - h00) / (float)so;
 		const float dy_lo = (float)(h(s, c0, so) - h00) / (float)so;
 		const float dy_hi = (float)(h(s, c0 + so, so) - h(s, c0 + so, 0)) / (float)so;
-		const int first = c0 > si ? c0 : si, last = c0 + so < n - si ? c0 + so : n - si;
+		int first, last;
+		relief_strip_ring(c0, so, si, &first, &last);
 		for (int t = first; t <= last; t += si) {
 			const int x = t - c0;
 			const float a = (float)(h(s, t, si) - h00) - dx * (float)x;
@@ -78,7 +86,8 @@ int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_poi
 	 * is at along x0 + s (t - x0), depth s si, and a cell side (vertical) or diagonal meets
 	 * it there with the same s as its own parameter from depth 0 to si; on both, the
 	 * interior's triangulation is linear from its foot to its top. */
-	const int first = c0 > si ? c0 : si, last = c0 + so < n - si ? c0 + so : n - si;
+	int first, last;
+	relief_strip_ring(c0, so, si, &first, &last);
 	for (int t = first; t <= last; t += si)
 		for (int end = 0; end < 2; end++) {
 			const int *p0 = end ? b : a, x0 = p0[0], dx = t - x0;

@@ -32,6 +32,11 @@ struct relief_strip_point {
 	float w0, w1;
 };
 
+/* The inner ring's vertices a strip in the column from along c0 to c0 + so can hold,
+ * against an interior of cells of si < so samples: at depth si, every si along from
+ * *first to *last, within the column and inset by si from the block's ends. */
+void relief_strip_ring(int c0, int so, int si, int *first, int *last);
+
 /* The points of the column from along c0 to c0 + so (segments of so samples, a power of
  * two up to RELIEF_BLOCK_CELLS) against an interior of cells of si < so samples: along the
  * segment, the samples between its ends; along each side from an end of the segment to a

@@ -65,7 +65,8 @@ static void coarse_edge(int so, int si)
 		emit("\t\tfloat dy_lo = float(%s - h00) / %d.0;\n", smp(c0, so), so);
 		emit("\t\tfloat dy_hi = float(%s - ", smp(c0 + so, so));
 		emit("%s) / %d.0;\n", smp(c0 + so, 0), so);
-		const int first = c0 > si ? c0 : si, last = c0 + so < N - si ? c0 + so : N - si;
+		int first, last;
+		relief_strip_ring(c0, so, si, &first, &last);
 		for (int t = first; t <= last; t += si) {
 			const int x = t - c0;
 			emit("\t\t{\n\t\t\tfloat a = float(%s - h00) - dx * %d.0;\n", smp(t, si), x);
