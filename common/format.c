@@ -244,7 +244,7 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "file is %zu bytes but its header says %llu (truncated or extended)", size,
 		           (unsigned long long)r.file_size);
 	relief_index_windows(&r);
-	uint64_t idx_len = (uint64_t)r.index_records * RELIEF_INDEX_RECORD_SIZE;
+	uint64_t idx_len = (uint64_t)r.index_records * relief_index_record_size(r.version);
 	if (r.block_patches < 1 || r.block_patches > r.index_records)
 		return bad(err, err_size, "%u block records for %u patches with index records", r.block_patches,
 		           r.index_records);
@@ -312,6 +312,11 @@ uint32_t relief_index_patch(const struct relief_header *h, uint32_t e)
 	return relief_patch_id(l, local % h->index_cols[l], local / h->index_cols[l]);
 }
 
+size_t relief_index_record_size(uint32_t version)
+{
+	return version >= 7 ? 48 : 40;
+}
+
 void relief_record_write(const struct relief_patch_record *r, uint8_t *o)
 {
 	memset(o, 0, RELIEF_INDEX_RECORD_SIZE);
@@ -324,9 +329,10 @@ void relief_record_write(const struct relief_patch_record *r, uint8_t *o)
 	le_put_u32(o + 28, r->flags);
 	le_put_u32(o + 32, r->mask_offset);
 	le_put_u32(o + 36, r->mask_size);
+	le_put_f32(o + 40, r->draw_error); /* bytes 44..47 reserved, zero */
 }
 
-void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
+void relief_record_read(const uint8_t *in, uint32_t version, struct relief_patch_record *r)
 {
 	r->offset = le_get_u64(in);
 	r->size = le_get_u32(in + 8);
@@ -337,6 +343,13 @@ void relief_record_read(const uint8_t *in, struct relief_patch_record *r)
 	r->flags = le_get_u32(in + 28);
 	r->mask_offset = le_get_u32(in + 32);
 	r->mask_size = le_get_u32(in + 36);
+	r->draw_error = version >= 7 ? le_get_f32(in + 40) : r->error;
+}
+
+/* A record's bytes, rec < index_records. */
+static const uint8_t *record_bytes(const struct relief_file *f, uint32_t rec)
+{
+	return f->meta + f->hdr.index_offset + (uint64_t)rec * relief_index_record_size(f->hdr.version);
 }
 
 /* Checks one index record, patch id (level l, px, py) at record `rec`, and assigns its block
@@ -346,7 +359,7 @@ static int validate_record(struct relief_file *f, uint32_t id, uint32_t l, uint3
 {
 	const struct relief_header *h = &f->hdr;
 	struct relief_patch_record r;
-	relief_record_read(f->meta + h->index_offset + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE, &r);
+	relief_record_read(record_bytes(f, rec), h->version, &r);
 	/* From version 5 block records are for non-EMPTY patches only, in index order. */
 	if (h->version >= 5 && (r.flags & RELIEF_PATCH_EMPTY))
 		f->block_slot[rec] = UINT32_MAX;
@@ -369,7 +382,14 @@ static int validate_record(struct relief_file *f, uint32_t id, uint32_t l, uint3
 		return bad(err, err_size, "patch %u (level %u, %u,%u): bad height range", id, l, px, py);
 	} else if (!isfinite(r.error) || r.error < 0 || r.error > 1e6) {
 		return bad(err, err_size, "patch %u (level %u, %u,%u): bad error bound %g", id, l, px, py, r.error);
+	} else if (!isfinite(r.draw_error) || r.draw_error < 0 || r.draw_error > 2 * RELIEF_MAX_HEIGHT) {
+		/* a distance between two surfaces whose heights are within +-RELIEF_MAX_HEIGHT */
+		return bad(err, err_size, "patch %u (level %u, %u,%u): bad drawn error %g", id, l, px, py, r.draw_error);
 	}
+	if ((r.flags & RELIEF_PATCH_EMPTY) && r.draw_error != 0.0f)
+		return bad(err, err_size, "patch %u (level %u, %u,%u): empty patch with a drawn error", id, l, px, py);
+	if (h->version >= 7 && le_get_u32(record_bytes(f, rec) + 44) != 0)
+		return bad(err, err_size, "patch %u (level %u, %u,%u): reserved record bytes not zero", id, l, px, py);
 	if (r.flags & RELIEF_PATCH_MASKED) {
 		if (r.mask_size == 0 || r.mask_offset > h->masks_size || r.mask_size > h->masks_size - r.mask_offset)
 			return bad(err, err_size, "patch %u (level %u, %u,%u): mask [%u, +%u) outside the mask section", id, l,
@@ -405,7 +425,7 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 {
 	const struct relief_header *h = &f->hdr;
 	const uint8_t *b = f->meta;
-	uint64_t idx_len = (uint64_t)h->index_records * RELIEF_INDEX_RECORD_SIZE;
+	uint64_t idx_len = (uint64_t)h->index_records * relief_index_record_size(h->version);
 	size_t be_per = relief_block_bytes_per_patch(h->version, h->patch_size);
 	uint64_t be_len = (uint64_t)h->block_patches * be_per;
 	uint64_t mask_len = h->masks_size;
@@ -567,7 +587,12 @@ void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_
 		*r = (struct relief_patch_record){ .flags = RELIEF_PATCH_EMPTY };
 		return;
 	}
-	relief_record_read(f->meta + f->hdr.index_offset + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE, r);
+	relief_record_read(record_bytes(f, rec), f->hdr.version, r);
+	uint32_t l, px, py;
+	if (f->hdr.version < 7 && !(r->flags & RELIEF_PATCH_EMPTY) && relief_patch_coords(&f->layout, id, &l, &px, &py) &&
+	    l + 1 < f->hdr.levels)
+		r->draw_error = relief_float_up(relief_draw_error_bound(r->error, 1u << (f->hdr.levels - 1 - l),
+		                                                        f->layout.delta[f->hdr.levels - 1]));
 }
 
 int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size)

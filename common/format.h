@@ -26,11 +26,13 @@
  * the valid extent (relief_patch_window()); 4: block errors measured against the finest
  * decoded surface, and block height ranges (patch_error.h); 5: block records for
  * non-EMPTY patches only, counted in the header; 6: index records only for the patches
- * of each level's index window (relief_index_windows()). Versions 2 to 5 are still read. */
-#define RELIEF_FORMAT_VERSION 6u
+ * of each level's index window (relief_index_windows()); 7: index records of 48 bytes
+ * with the patch's drawn error (relief_patch_record). Versions 2 to 6 are still read. */
+#define RELIEF_FORMAT_VERSION 7u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
-#define RELIEF_INDEX_RECORD_SIZE 40u
+/* Index record bytes: 48 from version 7, 40 before (relief_index_record_size()). */
+#define RELIEF_INDEX_RECORD_SIZE 48u
 /* Georeferencing a file may have (checked on open; the packer and the importer refuse
  * rasters outside it): |origin| <= RELIEF_MAX_COORD m, spacing in [RELIEF_SPACING_MIN,
  * RELIEF_SPACING_MAX] m. */
@@ -88,9 +90,16 @@ struct relief_patch_record {
 	uint32_t size;
 	uint32_t crc;
 	float height_min, height_max; /* reconstructed interior samples, metres */
-	float error;                  /* Err(P), metres */
+	float error;                  /* Err(P), metres: the codec's bound against the original */
 	uint32_t flags;
 	uint32_t mask_offset, mask_size; /* coded mask in the mask section (MASKED only) */
+	/* The drawn error E0(P), metres: the largest vertical distance from the patch drawn at
+	 * full detail (its own samples, either diagonal in each cell) to the finest decoded
+	 * surface (either diagonal), over the finest samples and cell centres of its live cells
+	 * (relief_patch_draw_error()). The coarse selection holds a patch's full-detail blocks
+	 * with it (docs/lod.md). Stored from version 7; for older files relief_file_record()
+	 * gives relief_draw_error_bound(), which bounds it from Err(P). */
+	float draw_error;
 };
 
 /* Block errors per patch (one byte each on disk, see relief_block_error_encode()). */
@@ -115,8 +124,13 @@ void relief_index_windows(struct relief_header *h);
 uint32_t relief_index_entry(const struct relief_header *h, uint32_t id);
 /* The patch id of entry e < index_records (the inverse). */
 uint32_t relief_index_patch(const struct relief_header *h, uint32_t e);
+/* Index record bytes of a file of this version. */
+size_t relief_index_record_size(uint32_t version);
+/* Writes a current-version record (RELIEF_INDEX_RECORD_SIZE bytes). */
 void relief_record_write(const struct relief_patch_record *r, uint8_t *out);
-void relief_record_read(const uint8_t *in, struct relief_patch_record *r);
+/* Reads a record of a file of `version`; before version 7 draw_error is Err(P) as stored
+ * (relief_file_record() turns it into the bound). */
+void relief_record_read(const uint8_t *in, uint32_t version, struct relief_patch_record *r);
 
 struct relief_file {
 	struct relief_header hdr;

@@ -198,7 +198,7 @@ static bool raw_wish(const struct relief_file *f, const struct relief_view_origi
 	struct relief_patch_record rec;
 	relief_file_record(f, id, &rec);
 	float d = relief_box_distance(&box);
-	float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
+	float err = d > 0.0f ? rec.draw_error * kappa / d : INFINITY;
 	return wants_split(err, tau, split_prev[id]);
 }
 
@@ -293,7 +293,7 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		struct relief_patch_record rec;
 		relief_file_record(f, id, &rec);
 		float d = relief_box_distance(&box);
-		float err = d > 0.0f ? rec.error * kappa / d : INFINITY;
+		float err = d > 0.0f ? rec.draw_error * kappa / d : INFINITY;
 		bool wish = l + 1 < lay->levels &&
 		            (wants_split(err, tau, split_prev[id]) || forced);
 		split_next[id] = wish;

@@ -267,8 +267,10 @@ static int encode_patch(void *ctx, size_t e)
 		ret = -ENOMEM;
 		goto out;
 	}
-	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest, p->eps[e])) < 0)
+	double drawn;
+	if ((ret = relief_block_errors(&p->lay, l, px, py, heights, &p->finest, p->eps[e], &drawn)) < 0)
 		goto out;
+	r->draw_error = relief_float_up(drawn);
 	relief_block_heights(&p->lay, heights, p->ranges[e]);
 
 	/* Validity mask at this level's samples. */

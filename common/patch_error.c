@@ -99,7 +99,7 @@ static double block_level_error(const double *b, uint32_t P, uint32_t s, uint32_
 }
 
 int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py, const double *ph,
-                        const struct relief_finest *fin, double *eps)
+                        const struct relief_finest *fin, double *eps, double *drawn)
 {
 	const uint32_t P = lay->geom.P, B = RELIEF_BLOCK_CELLS, step = 1u << (lay->levels - 1 - l);
 	const uint32_t n = B * step; /* finest cells per block side */
@@ -112,6 +112,7 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 	uint8_t *live = malloc(ls * rows);
 	if (!live)
 		return -ENOMEM;
+	*drawn = 0.0;
 	for (uint32_t by = 0; by < lay->blocks; by++)
 		for (uint32_t bx = 0; bx < lay->blocks; bx++) {
 			const uint64_t X0 = ((uint64_t)px * (P - 1) + bx * B) * step, Y0 = ((uint64_t)py * (P - 1) + by * B) * step;
@@ -144,9 +145,15 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
 			const double *b = ph + (size_t)by * B * P + bx * B;
 			for (uint32_t d = 1; d <= RELIEF_BLOCK_LEVELS; d++)
 				e[d - 1] = block_level_error(b, P, 1u << d, step, live, ls, iw, jh, fin, X0, Y0);
+			*drawn = dmax(*drawn, block_level_error(b, P, 1, step, live, ls, iw, jh, fin, X0, Y0));
 		}
 	free(live);
 	return 0;
+}
+
+double relief_draw_error_bound(double err, uint32_t n, double delta_finest)
+{
+	return (1.0 + 2.0 / n) * err + delta_finest;
 }
 
 float relief_block_error_decode(uint8_t code, double unit)

@@ -88,9 +88,26 @@ struct relief_finest {
 };
 
 /* eps[(by * blocks + bx) * 4 + (d - 1)] for every block of patch (l, px, py), whose P x P
- * heights are patch_heights. 0 for a block without a valid sample. -ENOMEM or 0. */
+ * heights are patch_heights. 0 for a block without a valid sample. *drawn receives the
+ * patch's drawn error E0(P) (format.h), the same measure at d = 0 (the patch's own cells)
+ * taken over all its blocks. -ENOMEM or 0. */
 int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px, uint32_t py,
-                        const double *patch_heights, const struct relief_finest *fin, double *eps);
+                        const double *patch_heights, const struct relief_finest *fin, double *eps, double *drawn);
+
+/* A bound on E0(P) from Err(P) for files that do not store E0 (format versions before 7),
+ * for a patch above the finest level whose cells are n = 2^(L-1-l) finest cells wide
+ * (n >= 2), delta_L the finest level's tolerance: (1 + 2/n) Err(P) + delta_L.
+ * Why: at a finest sample the patch is within Err(P) of the original (any diagonal) and the
+ * original within delta_L of the finest decoded surface. At a finest cell's centre where the
+ * patch is linear across the cell, its value is the mean of the ends of either diagonal,
+ * so within Err(P) + delta_L too. Otherwise the patch's cell diagonal runs along one of the
+ * finest cell's diagonals (a'b'), and the finest surface may take the other (ab): the
+ * difference is the mean of the errors at a', b' plus (p(a') + p(b') - p(a) - p(b)) / 2 = T / 2n
+ * for the patch cell's twist T = h00 + h11 - h10 - h01; the patch cell's centre is a finest
+ * sample where the two diagonals' values differ by T / 2, both within Err(P) of the
+ * original, so |T| <= 4 Err(P). It needs the samples involved to be valid; next to no-data
+ * it is not a bound. The selection uses it where a file does not have E0. */
+double relief_draw_error_bound(double err, uint32_t n, double delta_finest);
 
 /* Value of the triangulated cell with corners h00 (u=v=0), h10, h01, h11 at (u, v) in
  * [0,1]^2, under the diagonal 00-11 (diag = 0) or 10-01 (diag = 1). */

@@ -56,7 +56,7 @@ struct draw_push {
 _Static_assert(sizeof(struct draw_push) == 128, "draw push block");
 
 struct patch_info {
-	float hmin, hmax, err, skirt;
+	float hmin, hmax, err, skirt; /* err: the drawn error E0(P), relief_patch_record's draw_error */
 };
 
 struct instance {

@@ -11,6 +11,7 @@
  * and --offset; bit 7 --spacing), then the doubles gt[6], nodata, scale, offset, spacing
  * (little-endian, missing bytes zero), then the samples band by band. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -124,8 +125,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		if (relief_pack_memory(&d, &po, &img, &n, NULL) != 0)
 			abort(); /* imported, but the writer refuses it */
 		struct relief_file *f;
-		if (relief_file_open_memory(img, n, &f, err, sizeof(err)) != 0)
-			abort(); /* written, but the reader refuses it */
+		if (relief_file_open_memory(img, n, &f, err, sizeof(err)) != 0) {
+			fprintf(stderr, "%s\n", err); /* written, but the reader refuses it */
+			abort();
+		}
 		relief_file_close(f);
 		free(img);
 		relief_dem_finish(&d);

@@ -646,7 +646,7 @@ static void poison_stream(struct terrain *t, uint32_t id)
 	assert_int_not_equal(relief_index_entry(&h, id), UINT32_MAX);
 	uint8_t *rec = t->img + h.index_offset + (uint64_t)relief_index_entry(&h, id) * RELIEF_INDEX_RECORD_SIZE;
 	struct relief_patch_record r;
-	relief_record_read(rec, &r);
+	relief_record_read(rec, h.version, &r);
 	assert_true(out_size <= r.size); /* fits where the old stream was */
 	memcpy(t->img + h.data_offset + r.offset, out, out_size);
 	r.size = (uint32_t)out_size;

@@ -194,8 +194,10 @@ static void test_hostile_header_fields(void **state)
 	expect(open_with_u32(336, 1000000, err, sizeof(err)), err, "block records");
 }
 
-/* Rewrites index record `id` (fixing the index CRC). */
-static int open_with_record(uint32_t id, void (*edit)(struct relief_patch_record *), char *err, size_t n)
+/* Rewrites index record `id` (fixing the index CRC): with `edit`, or when edit is NULL by
+ * putting `word` at byte `at` of the record. */
+static int open_with_record_bytes(uint32_t id, void (*edit)(struct relief_patch_record *), size_t at, uint32_t word,
+                                  char *err, size_t n)
 {
 	uint8_t *copy = malloc(img_size);
 	memcpy(copy, img, img_size);
@@ -206,9 +208,13 @@ static int open_with_record(uint32_t id, void (*edit)(struct relief_patch_record
 	relief_file_close(f);
 	assert_int_not_equal(rec, UINT32_MAX);
 	struct relief_patch_record r;
-	relief_record_read(copy + idx + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE, &r);
-	edit(&r);
-	relief_record_write(&r, copy + idx + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE);
+	relief_record_read(copy + idx + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE, RELIEF_FORMAT_VERSION, &r);
+	if (edit) {
+		edit(&r);
+		relief_record_write(&r, copy + idx + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE);
+	} else {
+		le_put_u32(copy + idx + (uint64_t)rec * RELIEF_INDEX_RECORD_SIZE + at, word);
+	}
 	le_put_u32(copy + 180, relief_crc32c(0, copy + idx, (size_t)count * RELIEF_INDEX_RECORD_SIZE));
 	le_put_u32(copy + 508, relief_crc32c(0, copy, 508));
 	int ret = open_copy(copy, img_size, err, n);
@@ -216,10 +222,17 @@ static int open_with_record(uint32_t id, void (*edit)(struct relief_patch_record
 	return ret;
 }
 
+static int open_with_record(uint32_t id, void (*edit)(struct relief_patch_record *), char *err, size_t n)
+{
+	return open_with_record_bytes(id, edit, 0, 0, err, n);
+}
+
 static void rec_huge_offset(struct relief_patch_record *r) { r->offset = UINT64_MAX - 3; }
 static void rec_huge_size(struct relief_patch_record *r) { r->size = UINT32_MAX; }
 static void rec_bad_flags(struct relief_patch_record *r) { r->flags |= 1u << 7; }
 static void rec_nan_error(struct relief_patch_record *r) { r->error = NAN; }
+static void rec_negative_drawn(struct relief_patch_record *r) { r->draw_error = -1.0f; }
+static void rec_inf_drawn(struct relief_patch_record *r) { r->draw_error = INFINITY; }
 static void rec_inverted_range(struct relief_patch_record *r) { r->height_min = r->height_max + 1; }
 static void rec_empty_root(struct relief_patch_record *r) { r->flags = RELIEF_PATCH_EMPTY; r->size = 0; r->offset = 0; }
 static void rec_bad_mask(struct relief_patch_record *r) { r->flags |= RELIEF_PATCH_MASKED; r->mask_offset = 1u << 30; r->mask_size = 4; }
@@ -231,6 +244,9 @@ static void test_hostile_records(void **state)
 	expect(open_with_record(2, rec_huge_size, err, sizeof(err)), err, "outside the data section");
 	expect(open_with_record(3, rec_bad_flags, err, sizeof(err)), err, "unknown flags");
 	expect(open_with_record(1, rec_nan_error, err, sizeof(err)), err, "error bound");
+	expect(open_with_record(1, rec_negative_drawn, err, sizeof(err)), err, "drawn error");
+	expect(open_with_record(2, rec_inf_drawn, err, sizeof(err)), err, "drawn error");
+	expect(open_with_record_bytes(1, NULL, 44, 1, err, sizeof(err)), err, "reserved record bytes");
 	expect(open_with_record(1, rec_inverted_range, err, sizeof(err)), err, "height range");
 	expect(open_with_record(0, rec_empty_root, err, sizeof(err)), err, "root");
 	expect(open_with_record(1, rec_bad_mask, err, sizeof(err)), err, "mask");
@@ -387,6 +403,27 @@ static void test_version2_still_read(void **state)
 	free(v3img);
 }
 
+/* Records of the same patch from an older file and one packed now: equal but for the drawn
+ * error, which files before version 7 do not store. What they read instead must bound the
+ * measured one above the finest level (relief_draw_error_bound(): a proof, checked here on
+ * real data) and is Err(P) at the finest level (where the selection never uses it). */
+static void assert_same_record(const struct relief_file *old, uint32_t id, const struct relief_patch_record *a,
+                               const struct relief_patch_record *b)
+{
+	assert_true(a->offset == b->offset && a->size == b->size && a->crc == b->crc);
+	assert_true(a->height_min == b->height_min && a->height_max == b->height_max && a->error == b->error);
+	assert_true(a->flags == b->flags && a->mask_offset == b->mask_offset && a->mask_size == b->mask_size);
+	uint32_t l, px, py;
+	assert_true(relief_patch_coords(&old->layout, id, &l, &px, &py));
+	if (a->flags & RELIEF_PATCH_EMPTY)
+		assert_true(a->draw_error == 0.0f && b->draw_error == 0.0f);
+	else if (l + 1 == old->hdr.levels)
+		assert_true(a->draw_error == a->error);
+	else if (!(a->draw_error >= b->draw_error))
+		fail_msg("patch %u (level %u): drawn error %g, above the bound %g from Err(P) %g", id, l, b->draw_error,
+		         a->draw_error, a->error);
+}
+
 /* Every patch of `old` and `now` reads the same: index record, block errors and ranges,
  * stream. Returns the number of EMPTY patches. */
 static uint32_t assert_same_patches(const struct relief_file *old, const struct relief_file *now)
@@ -404,7 +441,7 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 		struct relief_patch_record a, b;
 		relief_file_record(old, id, &a);
 		relief_file_record(now, id, &b);
-		assert_memory_equal(&a, &b, sizeof(a));
+		assert_same_record(old, id, &a, &b);
 		empty += !!(a.flags & RELIEF_PATCH_EMPTY);
 		relief_file_block_errors(old, id, e0);
 		relief_file_block_errors(now, id, e1);
@@ -429,21 +466,25 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 	return empty;
 }
 
-/* Versions 4 and 5 are still read. tests/data/alps-crop-140x100-v4.relief was written by the
+/* Versions 4 to 6 are still read. tests/data/alps-crop-140x100-v4.relief was written by the
  * last version-4 packer (commit 8180fba), alps-crop-140x100-v5.relief by the last version-5
- * packer (commit 620b9bf), both from the Mont Blanc crop with the options of the version-2
- * file above. Version 5 dropped the block records of EMPTY patches (12 of this file's 21),
- * which read as zero bytes, what version 4 stored for them; version 6 drops their index
- * records too (all 12 lie outside the raster's windows), which read as what earlier
- * versions stored. So the same input packed now reads the same for every patch, and the
- * file is smaller by those records (up to 8 bytes of alignment per section). */
-static void test_versions4_5_still_read(void **state)
+ * packer (commit 620b9bf), alps-crop-140x100-v6.relief by the last version-6 packer (commit
+ * 01fc8e7), all from the Mont Blanc crop with the options of the version-2 file above.
+ * Version 5 dropped the block records of EMPTY patches (12 of this file's 21), which read
+ * as zero bytes, what version 4 stored for them; version 6 drops their index records too
+ * (all 12 lie outside the raster's windows), which read as what earlier versions stored;
+ * version 7 adds the drawn error to every index record (assert_same_record()). So the same
+ * input packed now reads the same for every patch but that, and the files differ by those
+ * records. */
+static void test_versions4_to_6_still_read(void **state)
 {
 	const struct {
 		const char *name;
 		uint32_t version;
 		bool block_records; /* it holds block records for EMPTY patches */
-	} olds[] = { { "alps-crop-140x100-v4.relief", 4, true }, { "alps-crop-140x100-v5.relief", 5, false } };
+	} olds[] = { { "alps-crop-140x100-v4.relief", 4, true },
+	             { "alps-crop-140x100-v5.relief", 5, false },
+	             { "alps-crop-140x100-v6.relief", 6, false } };
 	for (size_t i = 0; i < sizeof(olds) / sizeof(olds[0]); i++) {
 		uint8_t *img_now;
 		size_t size_now;
@@ -451,7 +492,7 @@ static void test_versions4_5_still_read(void **state)
 		open_crop_pair(olds[i].name, &img_now, &size_now, &old, &now);
 		assert_int_equal(old->hdr.version, olds[i].version);
 		assert_int_equal(now->hdr.version, RELIEF_FORMAT_VERSION);
-		assert_int_equal(old->hdr.index_records, old->hdr.patch_count);
+		assert_int_equal(old->hdr.index_records, olds[i].version < 6 ? old->hdr.patch_count : 21 - 12);
 		uint32_t empty = assert_same_patches(old, now);
 		assert_int_equal(empty, 12);
 		assert_int_equal(old->hdr.block_patches, olds[i].block_records ? old->hdr.patch_count : 21 - empty);
@@ -459,12 +500,19 @@ static void test_versions4_5_still_read(void **state)
 		assert_int_equal(now->hdr.index_records, 21 - empty);
 		struct stat st;
 		assert_int_equal(stat(test_data(olds[i].name), &st), 0);
+		/* The files differ by their index and block records only (and up to 8 bytes of
+		 * alignment per section): EMPTY patches' records dropped (versions 5 and 6), index
+		 * records of 48 bytes instead of 40 (version 7). */
 		const size_t per = relief_block_bytes_per_patch(olds[i].version, old->hdr.patch_size);
-		const uint64_t dropped = empty * (RELIEF_INDEX_RECORD_SIZE + (olds[i].block_records ? per : 0));
-		print_message("version %u: %lld bytes, version %u: %zu bytes (%u empty patches, %llu bytes of records)\n",
+		const int64_t records_then = (int64_t)old->hdr.index_records * relief_index_record_size(olds[i].version) +
+		                             (int64_t)old->hdr.block_patches * (int64_t)per;
+		const int64_t records_now = (int64_t)now->hdr.index_records * RELIEF_INDEX_RECORD_SIZE +
+		                            (int64_t)now->hdr.block_patches * (int64_t)per;
+		const int64_t diff = (int64_t)st.st_size - (int64_t)size_now;
+		print_message("version %u: %lld bytes, version %u: %zu bytes (%u empty patches; records %lld bytes then, %lld now)\n",
 		              olds[i].version, (long long)st.st_size, RELIEF_FORMAT_VERSION, size_now, empty,
-		              (unsigned long long)dropped);
-		assert_true((uint64_t)st.st_size - size_now + 16 > dropped && (uint64_t)st.st_size - size_now < dropped + 16);
+		              (long long)records_then, (long long)records_now);
+		assert_true(diff > records_then - records_now - 16 && diff < records_then - records_now + 16);
 		relief_file_close(old);
 		relief_file_close(now);
 		free(img_now);
@@ -509,7 +557,7 @@ int main(void)
 		cmocka_unit_test(test_inverted_block_range),
 		cmocka_unit_test(test_open_from_disk),
 		cmocka_unit_test(test_version2_still_read),
-		cmocka_unit_test(test_versions4_5_still_read),
+		cmocka_unit_test(test_versions4_to_6_still_read),
 		cmocka_unit_test(test_mask_blocks),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);

@@ -12,6 +12,7 @@
 #include "decode.h"
 #include "format.h"
 #include "pack.h"
+#include "patch_error.h"
 
 static uint32_t rng_state = 777;
 static double rnd(void)
@@ -70,14 +71,14 @@ struct packed {
 	struct relief_file *f;
 };
 
-static void pack(struct packed *p, enum test_dem d, double tol, uint32_t ratio, uint32_t patch, unsigned threads)
+static void pack(struct packed *p, const char *name, double tol, uint32_t ratio, uint32_t patch, unsigned threads)
 {
 	struct relief_pack_options o = { .patch = patch, .ratio = ratio, .tolerance = tol, .threads = threads };
 	struct relief_pack_stats st;
 	assert_int_equal(relief_pack_memory(&p->dem, &o, &p->img, &p->size, &st), 0);
 	char err[256];
 	if (relief_file_open_memory(p->img, p->size, &p->f, err, sizeof(err)) < 0)
-		fail_msg("%s at %g m: %s", test_dem_name(d), tol, err);
+		fail_msg("%s at %g m: %s", name, tol, err);
 }
 
 static void unpack(struct packed *p)
@@ -137,7 +138,56 @@ static bool finest_at(const struct relief_file *f, int32_t *const *blocks, const
 	return true;
 }
 
-static void check_file(struct packed *p, enum test_dem d, double tol)
+/* The drawn error E0(P) of patch (l, px, py) (decoded block b, record r) against an
+ * evaluation of its own: at the corners, edge middles and centre of every finest cell with
+ * a valid corner in its footprint, the patch's surface (either diagonal) against the finest
+ * decoded surface (either diagonal). Those points hold every vertex of the two surfaces'
+ * overlay, where their difference peaks, so the stored value must be reached, not only
+ * bound it. Above the finest level, where the footprint's original samples are all valid,
+ * it must also be within relief_draw_error_bound() of Err(P) (what older files read).
+ * Returns the largest E0 / Err(P) seen above the finest level. */
+static double check_drawn_error(const struct relief_file *f, int32_t *const *blocks, const struct relief_dem *dem,
+                                uint32_t l, uint32_t px, uint32_t py, const int32_t *b,
+                                const struct relief_patch_record *r)
+{
+	const struct relief_layout *lay = &f->layout;
+	const uint32_t P = lay->geom.P, E = lay->geom.E, step = 1u << (lay->levels - 1 - l);
+	const double q2 = 2 * lay->delta[l], far = 1.0 - 1e-9;
+	const uint64_t X0 = (uint64_t)px * (P - 1) * step, Y0 = (uint64_t)py * (P - 1) * step, span = (uint64_t)(P - 1) * step;
+	double found = 0;
+	bool all_valid = true;
+	for (uint64_t Y = Y0; Y < Y0 + span && Y < dem->height; Y++)
+		for (uint64_t X = X0; X < X0 + span && X < dem->width; X++) {
+			for (int k = 0; k < 4; k++) {
+				uint64_t cx = X + (k & 1), cy = Y + (k >> 1);
+				all_valid &= cx < dem->width && cy < dem->height && dem->valid[cy * dem->width + cx];
+			}
+			for (int k = 0; k < 9; k++) {
+				const double du = k % 3 == 0 ? 0.0 : k % 3 == 1 ? 0.5 : far, dv = k / 3 == 0 ? 0.0 : k / 3 == 1 ? 0.5 : far;
+				double fin[2];
+				if (!finest_at(f, blocks, dem, (double)X + du, (double)Y + dv, fin))
+					break; /* the cell has no valid corner: nothing is drawn in it */
+				const double gx = ((double)(X - X0) + du) / step, gy = ((double)(Y - Y0) + dv) / step;
+				const uint32_t cx = (uint32_t)gx, cy = (uint32_t)gy;
+				const int32_t *c = b + (cy + 1) * E + cx + 1;
+				for (int dc = 0; dc < 2; dc++) {
+					double v = surface(q2 * c[0], q2 * c[1], q2 * c[E], q2 * c[E + 1], gx - cx, gy - cy, dc);
+					found = fmax(found, fmax(fabs(v - fin[0]), fabs(v - fin[1])));
+				}
+			}
+		}
+	if (found > r->draw_error * (1 + 1e-6) + 1e-6 || found < r->draw_error * (1 - 1e-6) - 1e-6)
+		fail_msg("level %u patch %u,%u: drawn error %.9g stored, %.9g measured", l, px, py, r->draw_error, found);
+	if (l + 1 == lay->levels)
+		return 0;
+	const double bound = relief_draw_error_bound(r->error, step, lay->delta[lay->levels - 1]);
+	if (all_valid && r->draw_error > bound * (1 + 1e-6))
+		fail_msg("level %u patch %u,%u: drawn error %.9g above the bound %.9g from Err(P) %.9g", l, px, py,
+		         r->draw_error, bound, r->error);
+	return r->error > 0 ? r->draw_error / r->error : 0;
+}
+
+static double check_file(struct packed *p, const char *name, double tol, bool drawn)
 {
 	const struct relief_file *f = p->f;
 	const struct relief_layout *lay = &f->layout;
@@ -145,7 +195,7 @@ static void check_file(struct packed *p, enum test_dem d, double tol)
 	const size_t EE = (size_t)E * E;
 	const struct relief_dem *dem = &p->dem;
 	int32_t **blocks = decode_tree(f);
-	double worst_ratio = 0;
+	double worst_ratio = 0, drawn_ratio = 0;
 	uint64_t checked = 0;
 	float *eps = malloc(sizeof(float) * relief_block_errors_per_patch(P));
 	for (uint32_t l = 0; l < lay->levels; l++) {
@@ -168,7 +218,7 @@ static void check_file(struct packed *p, enum test_dem d, double tol)
 						double e = fabs(dem->heights[Y * dem->width + X] - q2 * b[(y + 1) * E + x + 1]);
 						if (e > delta * (1 + 1e-9))
 							fail_msg("%s tol %g level %u patch %u,%u sample %u,%u: error %.9g > %.9g",
-							         test_dem_name(d), tol, l, px, py, x, y, e, delta);
+							         name, tol, l, px, py, x, y, e, delta);
 						worst_ratio = fmax(worst_ratio, e / delta);
 						checked++;
 					}
@@ -210,10 +260,13 @@ static void check_file(struct packed *p, enum test_dem d, double tol)
 						}
 					}
 				if (worst > r.error)
-					fail_msg("%s tol %g patch %u: measured %.9g exceeds Err(P) %.9g", test_dem_name(d), tol, id,
+					fail_msg("%s tol %g patch %u: measured %.9g exceeds Err(P) %.9g", name, tol, id,
 					         worst, r.error);
 				assert_true(r.error <= worst * (1 + 1e-6) + 1e-6); /* and it is not loose */
 				assert_true(r.error >= delta * 0.5 || l == lay->levels - 1 || worst < delta);
+				/* 5. the drawn error (slow: one tolerance per file) */
+				if (drawn)
+					drawn_ratio = fmax(drawn_ratio, check_drawn_error(f, blocks, dem, l, px, py, b, &r));
 				/* 4. block errors bound the block drawn at level d against the finest decoded
 				 * surface: random points of finest cells with a valid corner, every diagonal
 				 * choice of both surfaces */
@@ -238,17 +291,21 @@ static void check_file(struct packed *p, enum test_dem d, double tol)
 								}
 							}
 							if (found > e_stored * (1 + 1e-6) + 1e-6)
-								fail_msg("%s tol %g patch %u block %u,%u d=%u: %.9g > stored %.9g", test_dem_name(d),
+								fail_msg("%s tol %g patch %u block %u,%u d=%u: %.9g > stored %.9g", name,
 								         tol, id, bx, by, dd, found, e_stored);
 						}
 			}
 	}
 	print_message("%s tol %g: %llu samples checked on %u levels, worst error %.4f delta, %zu bytes\n",
-	              test_dem_name(d), tol, (unsigned long long)checked, lay->levels, worst_ratio, p->size);
+	              name, tol, (unsigned long long)checked, lay->levels, worst_ratio, p->size);
+	if (drawn)
+		print_message("%s tol %g: drawn error checked, at most %.3f Err(P) above the finest level\n",
+		              name, tol, drawn_ratio);
 	for (uint32_t l = 0; l < lay->levels; l++)
 		free(blocks[l]);
 	free(blocks);
 	free(eps);
+	return drawn_ratio;
 }
 
 static void bounds_for(enum test_dem d, uint32_t patch)
@@ -257,8 +314,8 @@ static void bounds_for(enum test_dem d, uint32_t patch)
 	struct packed p = { 0 };
 	test_dem_load(d, &p.dem);
 	for (size_t i = 0; i < sizeof(tols) / sizeof(tols[0]); i++) {
-		pack(&p, d, tols[i], 2, patch, 0);
-		check_file(&p, d, tols[i]);
+		pack(&p, test_dem_name(d), tols[i], 2, patch, 0);
+		check_file(&p, test_dem_name(d), tols[i], tols[i] == 1.0);
 		unpack(&p);
 	}
 	relief_dem_finish(&p.dem);
@@ -272,11 +329,11 @@ static void test_ratio3_and_patch_sizes(void **state)
 {
 	struct packed p = { 0 };
 	test_dem_load(DEM_ALPS, &p.dem);
-	pack(&p, DEM_ALPS, 0.5, 3, 65, 0);
-	check_file(&p, DEM_ALPS, 0.5);
+	pack(&p, test_dem_name(DEM_ALPS), 0.5, 3, 65, 0);
+	check_file(&p, test_dem_name(DEM_ALPS), 0.5, true);
 	unpack(&p);
-	pack(&p, DEM_ALPS, 1.0, 2, 257, 0);
-	check_file(&p, DEM_ALPS, 1.0);
+	pack(&p, test_dem_name(DEM_ALPS), 1.0, 2, 257, 0);
+	check_file(&p, test_dem_name(DEM_ALPS), 1.0, false);
 	unpack(&p);
 	relief_dem_finish(&p.dem);
 }
@@ -285,9 +342,9 @@ static void test_deterministic(void **state)
 {
 	struct packed a = { 0 }, b = { 0 };
 	test_dem_load(DEM_ALPS, &a.dem);
-	pack(&a, DEM_ALPS, 1.0, 2, 129, 1);
+	pack(&a, test_dem_name(DEM_ALPS), 1.0, 2, 129, 1);
 	b.dem = a.dem;
-	pack(&b, DEM_ALPS, 1.0, 2, 129, 2);
+	pack(&b, test_dem_name(DEM_ALPS), 1.0, 2, 129, 2);
 	assert_int_equal(a.size, b.size);
 	assert_memory_equal(a.img, b.img, a.size);
 	unpack(&a);
@@ -312,6 +369,48 @@ static void synthetic_dem(struct relief_dem *d, uint32_t W, uint32_t H)
 			double dx = x - 0.7 * W, dy = y - 0.5 * H;
 			d->valid[i] = !(dx * dx + dy * dy < 0.01 * (double)H * H || (x > W - W / 10 && y < H / 10) || x % 211 == 7);
 		}
+}
+
+/* The drawn error on two synthetic rasters: one with no-data holes and a raster edge
+ * inside patches (synthetic_dem()), and an egg crate made to reach the bound's constant:
+ * samples (2i, 2j) alternate between 0 and 2A, the rest are 2A but A at (odd, odd). A
+ * level-1 patch's cell of 2 finest cells then runs its diagonal where the finest cells
+ * take the other one, and E0(P) = 2 Err(P) (relief_draw_error_bound() with n = 2): the
+ * coarse selection measured with Err(P) at half of tau, as before format version 7, had no
+ * margin left there for the finest level's tolerance. */
+static void egg_crate_dem(struct relief_dem *d, uint32_t N, float A)
+{
+	*d = (struct relief_dem){ .width = N, .height = N, .spacing_x = 10, .spacing_y = 10, .origin_y = 10.0 * (N - 1) };
+	d->heights = malloc(sizeof(float) * N * N);
+	d->valid = malloc((size_t)N * N);
+	assert_non_null(d->heights);
+	assert_non_null(d->valid);
+	for (uint32_t y = 0; y < N; y++)
+		for (uint32_t x = 0; x < N; x++) {
+			float h = 2 * A;
+			if (x % 2 == 0 && y % 2 == 0)
+				h = (((x >> 1) + (y >> 1)) & 1) ? 2 * A : 0.0f;
+			else if (x % 2 == 1 && y % 2 == 1)
+				h = A;
+			d->heights[(size_t)y * N + x] = h;
+			d->valid[(size_t)y * N + x] = 1;
+		}
+}
+
+static void test_drawn_error_synthetic(void **state)
+{
+	struct packed p = { 0 };
+	synthetic_dem(&p.dem, 700, 300);
+	pack(&p, "synthetic", 0.5, 2, 65, 0);
+	check_file(&p, "synthetic 700 x 300 with holes", 0.5, true);
+	unpack(&p);
+	relief_dem_finish(&p.dem);
+	egg_crate_dem(&p.dem, 257, 10.0f);
+	pack(&p, "egg crate", 0.01, 2, 65, 0);
+	double ratio = check_file(&p, "egg crate 257 x 257", 0.01, true);
+	assert_true(ratio > 1.99); /* the constant is reached */
+	unpack(&p);
+	relief_dem_finish(&p.dem);
 }
 
 /* The packer quantises each level over a window around the data, not the padded square:
@@ -410,7 +509,7 @@ static void test_nodata_stays_nodata(void **state)
 	for (size_t i = 0; i < (size_t)p.dem.width * p.dem.height; i++)
 		invalid += !p.dem.valid[i];
 	assert_int_equal(invalid, 3942); /* the file's NoData cells, per its documentation */
-	pack(&p, DEM_LUX, 0.5, 2, 65, 0);
+	pack(&p, test_dem_name(DEM_LUX), 0.5, 2, 65, 0);
 	assert_true(p.f->hdr.valid_samples == 8550 - 3942);
 	for (uint32_t l = 0; l < p.f->hdr.levels; l++) {
 		uint32_t w, h, step = 1u << (p.f->hdr.levels - 1 - l);
@@ -479,6 +578,7 @@ int main(void)
 		cmocka_unit_test(test_bounds_alps),
 		cmocka_unit_test(test_bounds_lux),
 		cmocka_unit_test(test_ratio3_and_patch_sizes),
+		cmocka_unit_test(test_drawn_error_synthetic),
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_nodata_stays_nodata),
 		cmocka_unit_test(test_windows_change_nothing),
