@@ -47,6 +47,9 @@ int cmd_info(int argc, char **argv)
 	uint64_t bytes[RELIEF_MAX_LEVELS] = { 0 };
 	/* Blocks with a valid sample: the ones a renderer tessellates (relief_mask_blocks()). */
 	uint64_t data_blocks[RELIEF_MAX_LEVELS] = { 0 };
+	/* The largest Err(P) (against the original) and drawn error E0(P) (against the finest
+	 * decoded surface, what the selection projects) of each level's patches, metres. */
+	float err_max[RELIEF_MAX_LEVELS] = { 0 }, drawn_max[RELIEF_MAX_LEVELS] = { 0 };
 	const uint32_t n_blocks = f->layout.blocks * f->layout.blocks;
 	uint8_t *mask = malloc((size_t)h->patch_size * h->patch_size), has_data[RELIEF_MAX_BLOCKS];
 	if (!mask) {
@@ -64,6 +67,8 @@ int cmd_info(int argc, char **argv)
 			continue;
 		nonempty[l]++;
 		bytes[l] += r.size;
+		err_max[l] = r.error > err_max[l] ? r.error : err_max[l];
+		drawn_max[l] = r.draw_error > drawn_max[l] ? r.draw_error : drawn_max[l];
 		if (!(r.flags & RELIEF_PATCH_MASKED)) {
 			data_blocks[l] += n_blocks;
 		} else if (relief_file_mask(f, id, mask) < 0) {
@@ -93,9 +98,10 @@ int cmd_info(int argc, char **argv)
 		printf(",\"corrupt_masks\":%u,\"levels\":[", bad_masks);
 		for (uint32_t l = 0; l < h->levels; l++)
 			printf("%s{\"level\":%u,\"delta_m\":%.17g,\"patches\":%u,\"nonempty\":%u,\"bytes\":%llu,"
-			       "\"blocks\":%llu,\"blocks_with_data\":%llu}",
+			       "\"blocks\":%llu,\"blocks_with_data\":%llu,\"err_max_m\":%.9g,\"drawn_err_max_m\":%.9g}",
 			       l ? "," : "", l, h->delta[l], 1u << (2 * l), nonempty[l], (unsigned long long)bytes[l],
-			       (unsigned long long)nonempty[l] * n_blocks, (unsigned long long)data_blocks[l]);
+			       (unsigned long long)nonempty[l] * n_blocks, (unsigned long long)data_blocks[l], err_max[l],
+			       drawn_max[l]);
 		printf("]}\n");
 	} else {
 		printf("%s: relief format %u, %llu bytes\n", path, h->version, (unsigned long long)h->file_size);
@@ -110,11 +116,14 @@ int cmd_info(int argc, char **argv)
 		       f->layout.blocks, f->layout.blocks, h->block_cells, h->tolerance, h->ratio);
 		printf("  metadata   %llu bytes: %u index records, %u block records (patches without one are "
 		       "empty)\n", (unsigned long long)h->data_offset, h->index_records, h->block_patches);
-		printf("  level  delta_m     patches  nonempty  blocks with data  bytes\n");
+		printf("  level  delta_m     patches  nonempty  blocks with data  max Err(P) m  max E0(P) m  bytes\n");
 		for (uint32_t l = 0; l < h->levels; l++)
-			printf("  %5u  %-10.6g  %7u  %8u  %6.1f%%           %llu\n", l, h->delta[l], 1u << (2 * l), nonempty[l],
-			       nonempty[l] ? 100.0 * data_blocks[l] / ((double)nonempty[l] * n_blocks) : 0.0,
-			       (unsigned long long)bytes[l]);
+			printf("  %5u  %-10.6g  %7u  %8u  %6.1f%%           %-12.6g  %-11.6g  %llu\n", l, h->delta[l],
+			       1u << (2 * l), nonempty[l],
+			       nonempty[l] ? 100.0 * data_blocks[l] / ((double)nonempty[l] * n_blocks) : 0.0, err_max[l],
+			       drawn_max[l], (unsigned long long)bytes[l]);
+		if (h->version < 7)
+			printf("  (format %u stores no E0(P): the bound from Err(P) is shown)\n", h->version);
 		printf("  total      %.3f bits per valid sample\n", bps);
 		if (bad_masks)
 			printf("  corrupt    %u patch mask(s) fail their check (blocks with data not counted there)\n", bad_masks);

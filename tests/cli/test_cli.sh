@@ -82,6 +82,11 @@ blocks_ok() { # name want(all|some) json
 blocks_ok info-json-blocks-puget all "$LAST_OUT"
 check info-json-lux 0 "$relief" info "$tmp/lux.relief" --json
 blocks_ok info-json-blocks-lux some "$LAST_OUT"
+expect_text info-json-drawn '"err_max_m":'
+expect_text info-json-drawn '"drawn_err_max_m":'
+# A version-6 file has no drawn error: info says it shows the bound from Err(P).
+check info-v6 0 "$relief" info "$data/alps-crop-140x100-v6.relief"
+expect_text info-v6-bound "format 6 stores no E0(P)"
 check unpack-raw 0 "$relief" unpack "$tmp/lux.relief" "$tmp/lux.f32" --raw --mask "$tmp/lux.mask"
 [ "$(stat -c %s "$tmp/lux.f32")" -eq $((95 * 90 * 4)) ] || { echo "FAIL raw size"; fails=$((fails + 1)); }
 [ "$(stat -c %s "$tmp/lux.mask")" -eq $((95 * 90)) ] || { echo "FAIL mask size"; fails=$((fails + 1)); }
