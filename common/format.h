@@ -96,7 +96,7 @@ struct relief_patch_record {
 	/* The drawn error E0(P), metres: the largest vertical distance from the patch drawn at
 	 * full detail (its own samples, either diagonal in each cell) to the finest decoded
 	 * surface (either diagonal), over the finest samples and cell centres of its live cells
-	 * (relief_patch_draw_error()). The coarse selection holds a patch's full-detail blocks
+	 * (computed with the block errors, relief_block_errors()). The coarse selection holds a patch's full-detail blocks
 	 * with it (docs/lod.md). Stored from version 7; for older files relief_file_record()
 	 * gives relief_draw_error_bound(), which bounds it from Err(P). */
 	float draw_error;

@@ -101,12 +101,15 @@ int relief_block_errors(const struct relief_layout *lay, uint32_t l, uint32_t px
  * original within delta_L of the finest decoded surface. At a finest cell's centre where the
  * patch is linear across the cell, its value is the mean of the ends of either diagonal,
  * so within Err(P) + delta_L too. Otherwise the patch's cell diagonal runs along one of the
- * finest cell's diagonals (a'b'), and the finest surface may take the other (ab): the
- * difference is the mean of the errors at a', b' plus (p(a') + p(b') - p(a) - p(b)) / 2 = T / 2n
- * for the patch cell's twist T = h00 + h11 - h10 - h01; the patch cell's centre is a finest
- * sample where the two diagonals' values differ by T / 2, both within Err(P) of the
- * original, so |T| <= 4 Err(P). It needs the samples involved to be valid; next to no-data
- * it is not a bound. The selection uses it where a file does not have E0. */
+ * finest cell's diagonals (a'b'), and the finest surface may take the other (ab). The
+ * patch p at the centre is (p(a') + p(b')) / 2, the finest surface (f(a) + f(b)) / 2, so
+ * the difference is the mean of p - f at a and b (each within Err(P) + delta_L) plus
+ * (p(a') + p(b') - p(a) - p(b)) / 2, which is +-T / 2n for the patch cell's twist
+ * T = h00 + h11 - h10 - h01 (p bends along its diagonal by T / n per finest cell); the
+ * patch cell's centre is a finest sample where its two diagonals' values differ by T / 2,
+ * both within Err(P) of the original, so |T| <= 4 Err(P). It needs the samples involved
+ * to be valid; next to no-data it is not a bound. The selection uses it where a file does
+ * not have E0. */
 double relief_draw_error_bound(double err, uint32_t n, double delta_finest);
 
 /* Value of the triangulated cell with corners h00 (u=v=0), h10, h01, h11 at (u, v) in
