@@ -256,6 +256,46 @@ struct relief_dem grid_dem(int N)
 	return dem;
 }
 
+uint32_t hash32(uint32_t x)
+{
+	x ^= x >> 16;
+	x *= 0x7feb352du;
+	x ^= x >> 15;
+	x *= 0x846ca68bu;
+	x ^= x >> 16;
+	return x;
+}
+
+struct relief_dem coast_dem(int N)
+{
+	struct relief_dem dem = grid_dem(N);
+	for (int y = 0; y < N; y++)
+		for (int x = N / 2 + 1; x < N; x++)
+			dem.heights[(size_t)y * N + x] = (float)(5.0 * (x - N / 2) + (hash32((uint32_t)(y * N + x)) % 4000) * 0.05 *
+			                                         fmin(1.0, (x - N / 2) / 16.0));
+	return dem;
+}
+
+struct pose coast_sweep_pose(int N, uint32_t i)
+{
+	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
+	uint32_t r = hash32(1000u + i);
+	double ey = len * (0.05 + 0.9 * (r % 1000) / 1000.0), ez = 300 + (hash32(r) % 6000);
+	double ex = cx + ((int)(hash32(r + 1) % 4000) - 1000);
+	double ang = (hash32(r + 2) % 360) * M_PI / 180, d = 2000 + hash32(r + 3) % 8000;
+	return (struct pose){ { ex, ey, ez }, { cx + cos(ang) * d * 0.3, ey + sin(ang) * d, 0 } };
+}
+
+struct pose steep_sweep_pose(int N, uint32_t i)
+{
+	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
+	uint32_t r = hash32(5000u + i);
+	double ey = len * (0.1 + 0.8 * (r % 1000) / 1000.0), ez = 800 + (hash32(r) % 4000);
+	double ex = cx + ((int)(hash32(r + 1) % 2000) - 1000);
+	double dx = (int)(hash32(r + 2) % 2000) - 1000, dy = (int)(hash32(r + 3) % 2000) - 1000;
+	return (struct pose){ { ex, ey, ez }, { ex + dx, ey + dy, 0 } };
+}
+
 struct relief_dem cliffs_dem(void)
 {
 	enum { N = 513 };

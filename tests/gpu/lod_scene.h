@@ -98,6 +98,21 @@ struct pose {
 /* An N x N grid 30 m apart whose north-west sample is at (0, 30 (N - 1)), so that its
  * south-west one is at the origin: heights 0, every sample valid (the caller finishes it). */
 struct relief_dem grid_dem(int N);
+/* A 32-bit integer hash (mixing constants of the "lowbias32" family): the test terrains'
+ * noise and the sweeps' camera positions, the same on every machine. */
+uint32_t hash32(uint32_t x);
+/* N x N samples of that grid: a flat sea west of the middle column, rough land east of it
+ * (a 5 m per sample rise plus up to 200 m of per-sample noise, ramped in over 16 samples).
+ * Packed with 65-sample patches, the sea's coarse patches border land drawn several levels
+ * finer. */
+struct relief_dem coast_dem(int N);
+/* View i of the coast sweep: along the coast, 300-6,300 m up, looking down at the sea or
+ * the land. */
+struct pose coast_sweep_pose(int N, uint32_t i);
+/* View i of the steep sweep over an N x N grid: 800-4,800 m over the middle column,
+ * looking down at a point within 1 km, so that the terrain fills the frame and any
+ * background pixel is a hole. */
+struct pose steep_sweep_pose(int N, uint32_t i);
 /* 513 x 513 of that grid on a slope, with a 1,000 m step between two samples along a
  * patch border (x = 256) and a 300 m diagonal step (x + y = 600), and poses at both. */
 struct relief_dem cliffs_dem(void);

@@ -169,16 +169,12 @@ static void test_edge_curtain(void **state)
 	bound_close(&b);
 }
 
-/* A 32-bit integer hash (mixing constants of the "lowbias32" family): the test terrains'
- * noise and the sweep's camera positions, the same on every machine. */
-static uint32_t hash32(uint32_t x)
+static uint32_t background_pixels(const float *depth, uint32_t w, uint32_t h)
 {
-	x ^= x >> 16;
-	x *= 0x7feb352du;
-	x ^= x >> 15;
-	x *= 0x846ca68bu;
-	x ^= x >> 16;
-	return x;
+	uint32_t n = 0;
+	for (size_t k = 0; k < (size_t)w * h; k++)
+		n += !(depth[k] > 0.0f);
+	return n;
 }
 
 /* Level jumps wider than a patch's blocks: a flat sea (x up to the middle column) beside
@@ -193,39 +189,6 @@ static uint32_t hash32(uint32_t x)
  * run when the test was written: with the old finer_across() views 57 (tau 16), 72 (tau 8)
  * and 93 (tau 16) show one hole each; the 2049 x 2049 sweep (jumps of 4) 7 holes in 400
  * frames, none now. */
-/* N x N samples 30 m apart: a flat sea west of the middle column, rough land east of it (a
- * 5 m per sample rise plus up to 200 m of per-sample noise, ramped in over 16 samples). */
-static struct relief_dem coast_dem(int N)
-{
-	struct relief_dem dem = grid_dem(N);
-	for (int y = 0; y < N; y++)
-		for (int x = N / 2 + 1; x < N; x++)
-			dem.heights[(size_t)y * N + x] = (float)(5.0 * (x - N / 2) + (hash32((uint32_t)(y * N + x)) % 4000) * 0.05 *
-			                                         fmin(1.0, (x - N / 2) / 16.0));
-	return dem;
-}
-
-/* View i of the steep sweep over an N x N grid 30 m apart: 800-4,800 m over the middle
- * column, looking down at a point within 1 km, so that the terrain fills the frame and
- * any background pixel is a hole. */
-static struct pose steep_sweep_pose(int N, uint32_t i)
-{
-	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
-	uint32_t r = hash32(5000u + i);
-	double ey = len * (0.1 + 0.8 * (r % 1000) / 1000.0), ez = 800 + (hash32(r) % 4000);
-	double ex = cx + ((int)(hash32(r + 1) % 2000) - 1000);
-	double dx = (int)(hash32(r + 2) % 2000) - 1000, dy = (int)(hash32(r + 3) % 2000) - 1000;
-	return (struct pose){ { ex, ey, ez }, { ex + dx, ey + dy, 0 } };
-}
-
-static uint32_t background_pixels(const float *depth, uint32_t w, uint32_t h)
-{
-	uint32_t n = 0;
-	for (size_t k = 0; k < (size_t)w * h; k++)
-		n += !(depth[k] > 0.0f);
-	return n;
-}
-
 static void test_deep_level_jumps(void **state)
 {
 	enum { N = 1025 };
@@ -234,19 +197,13 @@ static void test_deep_level_jumps(void **state)
 	bound_open_dem_patch(&b, vk, &dem, 65);
 	relief_dem_finish(&dem);
 	uint32_t *ids = malloc(4 * b.s.f->hdr.patch_count);
-	const double cx = 30.0 * (N / 2), len = 30.0 * (N - 1);
 	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
 	const struct {
 		uint32_t sweep;
 		double tau;
 	} views[] = { { 57, 16 }, { 72, 8 }, { 93, 16 } };
 	for (size_t i = 0; i < sizeof(views) / sizeof(views[0]); i++) {
-		/* The sweep's camera: along the coast, 300-6,300 m up, looking down at the sea or land. */
-		uint32_t r = hash32(1000u + views[i].sweep);
-		double ey = len * (0.05 + 0.9 * (r % 1000) / 1000.0), ez = 300 + (hash32(r) % 6000);
-		double ex = cx + ((int)(hash32(r + 1) % 4000) - 1000);
-		double ang = (hash32(r + 2) % 360) * M_PI / 180, d = 2000 + hash32(r + 3) % 8000;
-		struct pose p = { { ex, ey, ez }, { cx + cos(ang) * d * 0.3, ey + sin(ang) * d, 0 } };
+		struct pose p = coast_sweep_pose(N, views[i].sweep);
 		struct relief_view v = pose_view(&p);
 		struct relief_terrain_stats st;
 		render(&b.s, &v, b.ref, &st);

@@ -187,6 +187,24 @@ static void test_mesh_wide_field_of_view(void **state)
 	mesh_within_tau_view(&b, "Puget Sound, 120 degrees", poses, 1, taus, 2, 0, 120);
 }
 
+/* Borders between levels, triangle by triangle: the coast (lod_scene.h, coast_dem()), whose
+ * flat sea's coarse patches border land drawn up to 4 levels finer, so that finer patches
+ * put their border vertices on the sea's drawn edges (seals) and the sea's border edges take
+ * extra segments for them. The views of test_deep_level_jumps (test_lod_bound.c) at tau =
+ * 2, 4 and 16: every triangle within tau, the sealed ones too (at most 0.63 tau, December
+ * 2026). */
+static void test_mesh_level_jumps(void **state)
+{
+	enum { N = 1025 };
+	struct relief_dem dem = coast_dem(N);
+	struct bound_scene b;
+	bound_open_dem_patch(&b, vk, &dem, 65);
+	relief_dem_finish(&dem);
+	const struct pose poses[] = { coast_sweep_pose(N, 57), coast_sweep_pose(N, 72), coast_sweep_pose(N, 93) };
+	const double taus[] = { 2.0, 4.0, 16.0 };
+	mesh_within_tau_view(&b, "coast", poses, sizeof(poses) / sizeof(poses[0]), taus, 3, 0, 0);
+}
+
 /* Mont Blanc at UTM-like coordinates (500 km east, 5,000 km north) measures as at the
  * origin, to a millionth: the capture's vertices are grid samples and the measure works
  * in double precision. */
@@ -337,6 +355,7 @@ int main(void)
 		cmocka_unit_test(test_mesh_within_tau_cliffs),
 		cmocka_unit_test(test_mesh_driving_cameras),
 		cmocka_unit_test(test_mesh_wide_field_of_view),
+		cmocka_unit_test(test_mesh_level_jumps),
 		cmocka_unit_test(test_mesh_huge_coordinates),
 		cmocka_unit_test(test_mesh_capture_and_measure),
 		cmocka_unit_test(test_mesh_loose_transitions),
