@@ -268,9 +268,6 @@ static double check_file(struct packed *p, const char *name, double tol, enum dr
 					         worst, r.error);
 				assert_true(r.error <= worst * (1 + 1e-6) + 1e-6); /* and it is not loose */
 				assert_true(r.error >= delta * 0.5 || l == lay->levels - 1 || worst < delta);
-				/* 5. the drawn error */
-				if (drawn == DRAWN_ALL || (drawn == DRAWN_ABOVE_FINEST && l + 1 < lay->levels))
-					drawn_ratio = fmax(drawn_ratio, check_drawn_error(f, blocks, dem, l, px, py, b, &r));
 				/* 4. block errors bound the block drawn at level d against the finest decoded
 				 * surface: random points of finest cells with a valid corner, every diagonal
 				 * choice of both surfaces */
@@ -298,6 +295,9 @@ static double check_file(struct packed *p, const char *name, double tol, enum dr
 								fail_msg("%s tol %g patch %u block %u,%u d=%u: %.9g > stored %.9g", name,
 								         tol, id, bx, by, dd, found, e_stored);
 						}
+				/* 5. the drawn error */
+				if (drawn == DRAWN_ALL || (drawn == DRAWN_ABOVE_FINEST && l + 1 < lay->levels))
+					drawn_ratio = fmax(drawn_ratio, check_drawn_error(f, blocks, dem, l, px, py, b, &r));
 			}
 	}
 	print_message("%s tol %g: %llu samples checked on %u levels, worst error %.4f delta, %zu bytes\n",
