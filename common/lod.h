@@ -128,18 +128,18 @@ double relief_surface_height_bound(const struct relief_file *f, double x, double
  * drawn block holds the point within half a finest cell. */
 double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *ids, uint32_t n, double x, double y);
 
-/* A patch's screen error is Err(P) * relief_view_error_kappa() / (distance from the camera
- * to its box), infinite inside the box: anywhere in the frustum, the projection of its
- * samples' distance from the original. A block drawn at full detail has only that (the
- * tessellator's levels never test level 0), plus up to delta_L (the finest level against
- * the original) and half a finest cell's twist of the patch's triangulation (against the
- * finest surface's other diagonal), which the share below leaves room for. The coarse
- * selection takes patches whose screen error is within this share of tau (tau_c); the
- * rest is left to the tessellator. A patch's own samples lie up to Err(P) from the finest
+/* A patch's screen error is its drawn error E0(P) (relief_patch_record) *
+ * relief_view_error_kappa() / (distance from the camera to its box), infinite inside the
+ * box: anywhere in the frustum, the projection of the patch at full detail's distance from
+ * the finest decoded surface. A block drawn at full detail has only that test (the
+ * tessellator's levels never test level 0), and it holds at any share up to 1. The coarse
+ * selection takes patches whose screen error is within this share of tau (tau_c); the rest
+ * is left to the tessellator. A patch's own samples lie up to E0(P) from the finest
  * surface, so with the whole of tau (the paper) its blocks can rarely simplify: measured on
  * Puget Sound, a half share draws fewer triangles at the same measured error (a third
  * fewer when block errors added Err(P); 9 % fewer at tau = 1 since they are measured
- * against the finest surface, docs/lod.md). */
+ * against the finest surface); with the error kappa and E0(P), shares 0.35 to 1 draw
+ * nearly the same on both benchmark flights (docs/lod.md, known issues). */
 #define RELIEF_LOD_COARSE_SHARE 0.5
 
 /* Hysteresis: a patch splits when its screen error exceeds tau_c, and stays split until it

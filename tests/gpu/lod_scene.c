@@ -347,6 +347,13 @@ void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const str
 	bound_buffers(b);
 }
 
+void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N)
+{
+	struct relief_dem dem = coast_dem(N);
+	bound_open_dem_patch(b, vk, &dem, 65);
+	relief_dem_finish(&dem);
+}
+
 void bound_close(struct bound_scene *b)
 {
 	free(b->finest);

@@ -137,6 +137,8 @@ void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);
 /* The same for a DEM of the test's own (the caller keeps it). */
 void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem);
 void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch);
+/* The N x N coast (coast_dem()) packed with 65-sample patches. */
+void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N);
 /* The finest level and the depth images for a scene opened otherwise (scene_open_at()). */
 void bound_buffers(struct bound_scene *b);
 /* Also fails the test if the validation layer spoke. */

@@ -196,10 +196,8 @@ static void test_mesh_wide_field_of_view(void **state)
 static void test_mesh_level_jumps(void **state)
 {
 	enum { N = 1025 };
-	struct relief_dem dem = coast_dem(N);
 	struct bound_scene b;
-	bound_open_dem_patch(&b, vk, &dem, 65);
-	relief_dem_finish(&dem);
+	bound_open_coast(&b, vk, N);
 	const struct pose poses[] = { coast_sweep_pose(N, 57), coast_sweep_pose(N, 72), coast_sweep_pose(N, 93) };
 	const double taus[] = { 2.0, 4.0, 16.0 };
 	mesh_within_tau_view(&b, "coast", poses, sizeof(poses) / sizeof(poses[0]), taus, 3, 0, 0);
