@@ -58,7 +58,10 @@
  * (static geometry pops there too); that measure is still printed as camera_popping_px.
  * The JSON also has the median and the largest per-pair value (popping_pair_median_px,
  * popping_pair_max_px): the average is made by a few pairs that catch a level switch of
- * a distant ridge, and a small change of the LOD moves it a lot (docs/benchmarks.md).
+ * a distant ridge, and a small change of the LOD moves it a lot (docs/benchmarks.md). So it
+ * also counts those events: popping_events of popping_pairs pairs changed some pixel's
+ * error by more than POP_EVENT_PX, popping_event_pixels pixels in all, popping_pixel_max_px
+ * the largest change of one pixel.
  * shade_popping is the same comparison on the picture itself: the RMS over pixels showing
  * terrain in both of the colour difference (RGB distance / sqrt 3, in 8-bit steps)
  * between the two renders, averaged over the pairs; what a viewer sees change, lighting
@@ -103,6 +106,11 @@ struct result {
 	double ms_median, ms_p95, select_ms, lod_ms, triangles, patches, max_err, p999_err, rms_err, popping;
 	double camera_popping;
 	double popping_median, popping_max; /* over the pairs: the mean above is made by a few */
+	/* The pairs in which some pixel's error changed by more than POP_EVENT_PX (events), the
+	 * pixels that did in all of them, and the largest single pixel's change. */
+	uint32_t pop_events;
+	uint64_t pop_event_pixels;
+	double pop_pixel_max;
 	double shade_popping;               /* colour change of the LOD change alone, 8-bit steps */
 	double shade_err;                   /* colour difference from the full-resolution render */
 	double max_err_3x, recheck_diff;    /* rechecked maximum (top of the file), -1 if not rechecked */
@@ -288,16 +296,30 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 	return 0;
 }
 
-/* RMS over pixels showing terrain in both of the change of the signed error; -1 if none. */
-static double error_change(const float *a, const float *b, size_t n)
+/* A pixel whose signed error changes by more than this between the frozen and the own level
+ * of detail counts as changed. The full-resolution render, whose level of detail never
+ * changes, moves single pixels by up to 0.002 px (drawn from another camera's origin). */
+#define POP_EVENT_PX 0.01
+
+/* RMS over pixels showing terrain in both of the change of the signed error; -1 if none.
+ * With `changed`, also how many of them changed by more than POP_EVENT_PX, and with
+ * `largest` the largest change. */
+static double error_change(const float *a, const float *b, size_t n, uint64_t *changed, double *largest)
 {
-	double sum = 0;
-	uint64_t count = 0;
+	double sum = 0, most = 0;
+	uint64_t count = 0, moved = 0;
 	for (size_t k = 0; k < n; k++)
 		if (!isnan(a[k]) && !isnan(b[k])) {
-			sum += ((double)a[k] - b[k]) * ((double)a[k] - b[k]);
+			const double d = (double)a[k] - b[k];
+			sum += d * d;
 			count++;
+			moved += fabs(d) > POP_EVENT_PX;
+			most = fmax(most, fabs(d));
 		}
+	if (changed)
+		*changed = moved;
+	if (largest)
+		*largest = most;
 	return count ? sqrt(sum / count) : -1;
 }
 
@@ -397,7 +419,10 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			}
 		}
 		if (i % 2 == 1) { /* the frame after a key pose: popping */
-			double d = error_change(frozen, err, (size_t)W * H), dc = error_change(prev, err, (size_t)W * H);
+			uint64_t moved;
+			double most;
+			double d = error_change(frozen, err, (size_t)W * H, &moved, &most);
+			double dc = error_change(prev, err, (size_t)W * H, NULL, NULL);
 			double ds = colour_change(frozen_rgba, r->gpu.target.color_readback.map, frozen_depth,
 			                          r->gpu.target.depth_readback.map, (size_t)W * H);
 			if (d >= 0 && dc >= 0 && ds >= 0) {
@@ -405,6 +430,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 				camera_pop += dc;
 				shade_pop += ds;
 				pops[pairs++] = d;
+				res->pop_events += moved > 0;
+				res->pop_event_pixels += moved;
+				res->pop_pixel_max = fmax(res->pop_pixel_max, most);
 			}
 		}
 		/* Last: it draws the frame again into the target the statistics above read. */
@@ -683,11 +711,14 @@ int bench_lod(int argc, char **argv)
 			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,"
 			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
+			       "\"popping_pairs\":%u,\"popping_events\":%u,\"popping_event_pixels\":%llu,"
+			       "\"popping_pixel_max_px\":%.4f,"
 			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
 			       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u,\"face_culled_frames\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
-			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, res[i].shade_popping, res[i].shade_err,
+			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, frames, res[i].pop_events,
+			       (unsigned long long)res[i].pop_event_pixels, res[i].pop_pixel_max, res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
 			       (unsigned long long)res[i].excluded, per_run, runs, w, h, res[i].face_culled);
 			if (res[i].max_err_3x >= 0)
