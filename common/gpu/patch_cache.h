@@ -53,6 +53,11 @@ struct relief_patch_cache_options {
 	uint32_t keep_frames;    /* not evicted within this many frames of a touch (default 2) */
 	uint32_t max_layers;     /* 0, or a cap below what the budget allows (tests) */
 	uint32_t workers;        /* entropy-decoding threads (default 1, at most 8) */
+	/* Timestamps between a batch's passes too (stats.gpu_decode_ns and the rest), not only
+	 * at its start and end: for profiling (relief bench decode). lavapipe flushes its
+	 * pipeline at every timestamp not at the top of the pipe, about 0.1 ms each
+	 * (docs/benchmarks.md), so a cache that streams leaves them out. */
+	bool pass_timing;
 };
 
 #define RELIEF_PATCH_CACHE_MAX_WORKERS 8u
@@ -74,9 +79,9 @@ struct relief_patch_cache_stats {
 	uint64_t table_bytes;     /* the per-patch tables (16 bytes per index entry), outside the budget */
 	uint64_t decoded, evicted, bad, batches;
 	uint64_t gpu_ns;          /* summed GPU time of the decode batches (timestamps) */
-	uint64_t gpu_decode_ns;   /* of which heights: block error copies and the decode pass */
+	uint64_t gpu_decode_ns;   /* with pass_timing, of which heights: block error copies and the decode pass */
 	uint64_t gpu_normals_ns;  /* the normals pass */
-	uint64_t gpu_strips_ns;   /* and the transition strip bounds' pass */
+	uint64_t gpu_strips_ns;   /* and the transition strip bounds' pass (all 0 without pass_timing) */
 	uint64_t entropy_ns;      /* summed worker time in fetch + entropy decoding */
 	uint32_t waiting;         /* patches entropy-decoded, not yet taken into a batch */
 	uint32_t queue_entries;   /* request queue entries: at most twice the live ones plus 256 */

@@ -254,6 +254,14 @@ void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)
 		return;
 	uint64_t t[QUERIES];
 	uint32_t first = (uint32_t)(b - c->batches) * QUERIES;
+	if (!c->o.pass_timing) { /* the batch's start and end only */
+		if (vkGetQueryPoolResults(c->vk->device, c->timer, first, 1, sizeof(t[0]), &t[0], sizeof(uint64_t),
+		                          VK_QUERY_RESULT_64_BIT) == VK_SUCCESS &&
+		    vkGetQueryPoolResults(c->vk->device, c->timer, first + 3, 1, sizeof(t[3]), &t[3], sizeof(uint64_t),
+		                          VK_QUERY_RESULT_64_BIT) == VK_SUCCESS)
+			c->stats.gpu_ns += relief_vk_ticks_elapsed_ns(c->vk, t[0], t[3]);
+		return;
+	}
 	if (vkGetQueryPoolResults(c->vk->device, c->timer, first, QUERIES, sizeof(t), t, sizeof(uint64_t),
 	                          VK_QUERY_RESULT_64_BIT) != VK_SUCCESS)
 		return;
@@ -336,14 +344,14 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
 	               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-	if (c->timer) /* after the barrier: the decode pass has finished */
+	if (c->timer && c->o.pass_timing) /* after the barrier: the decode pass has finished */
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 1);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
 	vkCmdDispatch(cmd, runs_p, 1, b->n);
 	/* The transition strip bounds read the heights too and write their own part of the
 	 * layers' block records: no barrier after the normals pass (so the timestamp between
 	 * them marks the normals' end; the strips may have started). */
-	if (c->timer)
+	if (c->timer && c->o.pass_timing)
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 2);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->strips_pipeline);
 	vkCmdDispatch(cmd, 1, 1, b->n);
