@@ -298,7 +298,8 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 
 /* A pixel whose signed error changes by more than this between the frozen and the own level
  * of detail counts as changed. The full-resolution render, whose level of detail never
- * changes, moves single pixels by up to 0.002 px (drawn from another camera's origin). */
+ * changes, moves its pixels by under 0.005 px (drawn from another camera's origin), but for
+ * a few single ones on long flights (docs/benchmarks.md, "What an event is"). */
 #define POP_EVENT_PX 0.01
 
 /* RMS over pixels showing terrain in both of the change of the signed error; -1 if none.
