@@ -159,16 +159,17 @@ static float interior_edge(const struct strip *s, const struct strip_points *sp,
 	return worst;
 }
 
-/* Half the largest twist of the cells in the first row along the edge (depth 0 to 1): at
- * the finest level, how far the patch drawn at full resolution with either diagonal lies
- * from the finest surface there, quanta. */
-static float first_row_eps(const struct strip *s)
+/* Half the largest twist of the cells in the first `rows` rows along the edge (depth 0 to
+ * rows): at the finest level, how far the patch drawn at full resolution with either
+ * diagonal lies from the finest surface there, quanta. */
+static float first_rows_eps(const struct strip *s, int rows)
 {
 	float worst = 0.0f;
-	for (int k = 0; k < RELIEF_BLOCK_CELLS; k++) {
-		const int32_t twist = h(s, k, 0) + h(s, k + 1, 1) - h(s, k + 1, 0) - h(s, k, 1);
-		worst = fmaxf(worst, 0.5f * (float)abs(twist));
-	}
+	for (int r = 0; r < rows; r++)
+		for (int k = 0; k < RELIEF_BLOCK_CELLS; k++) {
+			const int32_t twist = h(s, k, r) + h(s, k + 1, r + 1) - h(s, k + 1, r) - h(s, k, r + 1);
+			worst = fmaxf(worst, 0.5f * (float)abs(twist));
+		}
 	return worst;
 }
 
@@ -185,6 +186,144 @@ static float fine_edge(const struct strip *s, int so)
 		if (c0 >= c && c0 + c <= n - c) {
 			const float e1 = fabsf(b + 2.0f * m - a - 2.0f * cc) / 3.0f, e2 = fabsf(a + 2.0f * m - b) / 3.0f;
 			worst = fmaxf(worst, fmaxf(mid, fminf(e1, e2)));
+		}
+	}
+	return worst;
+}
+
+/* Fine-edge strips against the edge's own level L_e (cells of so): a candidate triangle T
+ * has its corners on samples, so T - L_e is linear on each piece of T that the cells'
+ * sides and the diagonal chosen in each cell cut, and peaks at the cells' vertices on or
+ * in T or where T's sides cross a cell's side or diagonal. */
+static int add_fine(struct relief_strip_fine_point *out, int cap, int k, int tri, int cell, int diag, int n,
+                    const int (*pts)[2], const double *w)
+{
+	if (out && k < cap) {
+		struct relief_strip_fine_point *p = &out[k];
+		*p = (struct relief_strip_fine_point){ .tri = (uint8_t)tri, .cell = (uint8_t)cell, .diag = (uint8_t)diag };
+		for (int i = 0; i < n; i++)
+			if (w[i] != 0.0) {
+				p->s[p->n][0] = (int8_t)pts[i][0];
+				p->s[p->n][1] = (int8_t)pts[i][1];
+				p->w[p->n++] = (float)w[i];
+			}
+	}
+	return k + 1;
+}
+
+/* Where the side from a to b crosses the segment from g0 to g1 strictly inside both: the
+ * parameters along each, or false (parallel, or no such crossing). */
+static bool crossing(const int a[2], const int b[2], const int g0[2], const int g1[2], double *u, double *v)
+{
+	const double ex = b[0] - a[0], ey = b[1] - a[1], fx = g1[0] - g0[0], fy = g1[1] - g0[1];
+	const double den = ex * fy - ey * fx;
+	if (den == 0.0)
+		return false;
+	const double rx = g0[0] - a[0], ry = g0[1] - a[1];
+	*u = (rx * fy - ry * fx) / den;
+	*v = (rx * ey - ry * ex) / den;
+	return *u > 1e-9 && *u < 1 - 1e-9 && *v > 1e-9 && *v < 1 - 1e-9;
+}
+
+int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
+{
+	const int c = 2 * so;
+	int first, last;
+	relief_strip_ring(c0, c, c, &first, &last);
+	const bool ha = first == c0 && first <= last, hb = last == c0 + c && first <= last;
+	const int o[2] = { c0, 0 }, m[2] = { c0 + so, 0 }, cc[2] = { c0 + c, 0 }, a[2] = { c0, c }, b[2] = { c0 + c, c };
+	const int *tris[7][3];
+	int nt = 0;
+	if (ha) {
+		tris[nt][0] = o, tris[nt][1] = m, tris[nt++][2] = a;
+		tris[nt][0] = m, tris[nt][1] = cc, tris[nt++][2] = a;
+	}
+	if (hb) {
+		tris[nt][0] = o, tris[nt][1] = m, tris[nt++][2] = b;
+		tris[nt][0] = m, tris[nt][1] = cc, tris[nt++][2] = b;
+	}
+	if (ha && hb)
+		for (int v = 0; v < 3; v++) {
+			tris[nt][0] = a, tris[nt][1] = b;
+			tris[nt++][2] = v == 0 ? o : v == 1 ? m : cc;
+		}
+	int k = 0;
+	for (int t = 0; t < nt; t++) {
+		const int *const *p = tris[t];
+		/* the cells' vertices on or in T, its corners left out */
+		const double det = (double)(p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) -
+		                   (double)(p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+		for (int j = 0; j <= 2; j++)
+			for (int i = 0; i <= 2; i++) {
+				const int g[2] = { c0 + i * so, j * so };
+				const double l1 = ((double)(g[0] - p[0][0]) * (p[2][1] - p[0][1]) -
+				                   (double)(p[2][0] - p[0][0]) * (g[1] - p[0][1])) / det;
+				const double l2 = ((double)(p[1][0] - p[0][0]) * (g[1] - p[0][1]) -
+				                   (double)(g[0] - p[0][0]) * (p[1][1] - p[0][1])) / det;
+				const double l0 = 1.0 - l1 - l2;
+				if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9 || l0 > 1 - 1e-9 || l1 > 1 - 1e-9 || l2 > 1 - 1e-9)
+					continue;
+				const int pts[4][2] = { { p[0][0], p[0][1] }, { p[1][0], p[1][1] }, { p[2][0], p[2][1] }, { g[0], g[1] } };
+				k = add_fine(out, cap, k, t, RELIEF_STRIP_ANY_CELL, 0, 4, pts, (const double[]){ l0, l1, l2, -1.0 });
+			}
+		for (int e = 0; e < 3; e++) {
+			const int *pa = p[e], *pb = p[(e + 1) % 3];
+			/* the cells' sides: the segments between neighbouring vertices */
+			for (int j = 0; j <= 2; j++)
+				for (int i = 0; i <= 2; i++)
+					for (int dir = 0; dir < 2; dir++) {
+						const int g0[2] = { c0 + i * so, j * so };
+						const int g1[2] = { g0[0] + (dir == 0 ? so : 0), g0[1] + (dir == 1 ? so : 0) };
+						double u, v;
+						if (g1[0] > c0 + c || g1[1] > c || !crossing(pa, pb, g0, g1, &u, &v))
+							continue;
+						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { g1[0], g1[1] } };
+						k = add_fine(out, cap, k, t, RELIEF_STRIP_ANY_CELL, 0, 4, pts,
+						             (const double[]){ 1 - u, u, -(1 - v), -v });
+					}
+			/* either diagonal of each cell */
+			for (int cell = 0; cell < 4; cell++)
+				for (int diag = 1; diag <= 2; diag++) {
+					const int x0 = c0 + (cell % 2) * so, y0 = (cell / 2) * so;
+					const int g0[2] = { diag == 1 ? x0 : x0 + so, y0 }, g1[2] = { diag == 1 ? x0 + so : x0, y0 + so };
+					double u, v;
+					if (!crossing(pa, pb, g0, g1, &u, &v))
+						continue;
+					const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { g1[0], g1[1] } };
+					k = add_fine(out, cap, k, t, cell, diag, 4, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
+				}
+		}
+	}
+	return k;
+}
+
+enum { FINE_POINTS_MAX = 512 };
+
+/* The largest deviation of a fine-edge strip (segments so) from the edge's own level, per
+ * candidate triangle with the better diagonal in each cell, quanta. */
+static float fine_edge_level(const struct strip *s, int so)
+{
+	struct relief_strip_fine_point pts[FINE_POINTS_MAX];
+	float worst = 0.0f;
+	for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += 2 * so) {
+		const int np = relief_strip_fine_points(so, c0, pts, FINE_POINTS_MAX);
+		const int32_t ref = h(s, c0, 0);
+		float any[7] = { 0 }, cell[7][4][2] = { { { 0 } } };
+		for (int i = 0; i < np && i < FINE_POINTS_MAX; i++) {
+			const struct relief_strip_fine_point *p = &pts[i];
+			float d = p->w[0] * (float)(h(s, p->s[0][0], p->s[0][1]) - ref);
+			for (int t = 1; t < p->n; t++)
+				d = d + p->w[t] * (float)(h(s, p->s[t][0], p->s[t][1]) - ref);
+			if (p->cell == RELIEF_STRIP_ANY_CELL)
+				any[p->tri] = fmaxf(any[p->tri], fabsf(d));
+			else
+				cell[p->tri][p->cell][p->diag - 1] = fmaxf(cell[p->tri][p->cell][p->diag - 1], fabsf(d));
+		}
+		for (int t = 0; t < 7; t++) {
+			float v = any[t];
+			for (int k = 0; k < 4; k++)
+				v = fmaxf(v, fminf(cell[t][k][0], cell[t][k][1]));
+			worst = fmaxf(worst, v);
 		}
 	}
 	return worst;
@@ -207,7 +346,7 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			float *r = out + ((size_t)b * 4 + (size_t)e) * RELIEF_STRIP_FLOATS;
 			const float *eb = eps + (size_t)b * 4;
 			/* eps_0 is known at the finest level only (the patch is the finest surface). */
-			const float e0 = finest ? q2 * first_row_eps(&s) : INFINITY;
+			const float e0 = finest ? q2 * first_rows_eps(&s, 1) : INFINITY;
 			for (int l = 1; l <= 4; l++) {
 				float charge = 0.0f;
 				for (int i = 0; i < l; i++) {
@@ -218,8 +357,14 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 				}
 				r[l - 1] = charge;
 			}
-			for (int l = 0; l <= 2; l++)
-				r[4 + l] = q2 * fine_edge(&s, 1 << l);
+			/* eps_0 over the two rows a strip at level 0 spans (the finest level only) */
+			const float e0_2 = finest ? q2 * first_rows_eps(&s, 2) : INFINITY;
+			for (int l = 0; l <= 2; l++) {
+				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
+				const float el = l == 0 ? e0_2 : eb[l - 1];
+				const float b2 = isinf(el) ? INFINITY : el + q2 * fine_edge_level(&s, 1 << l);
+				r[4 + l] = fminf(b1, b2);
+			}
 			r[7] = 0.0f;
 		}
 	strip_points_finish(&sp);

@@ -14,8 +14,9 @@
  * [0..3] for an edge at level e = 1..4 (segments of 2^e samples), the charge of any
  *        coarse-edge strip along it against any finer interior: at most this far from the
  *        finest surface (the larger of it and the block's eps_e bounds the edge's level);
- * [4..6] for an edge at level e = 0..2 against an interior one level coarser, D (to add to
- *        the interior level's eps);
+ * [4..6] for an edge at level e = 0..2 against an interior one level coarser, the charge
+ *        of its fine-edge strips: the smaller of eps_(e+1) + D against the column's square
+ *        and eps_e + D_e against the edge's own level (relief_strip_fine_points());
  * [7]    0. */
 #define RELIEF_STRIP_FLOATS 8
 
@@ -44,6 +45,31 @@ void relief_strip_ring(int c0, int so, int si, int *first, int *last);
  * crosses a side or either diagonal of a cell. Writes at most `cap` of them to out (may be
  * NULL with cap 0); returns how many there are. */
 int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_point *out, int cap);
+
+/* One point where a fine-edge strip triangle may deviate most from the triangulation of
+ * the edge's own level (cells of so samples, in the column's square of side 2 so): its
+ * deviation there is the sum of w h(s) over the terms (the weights sum to zero), h(s) the
+ * height of sample s = (along, depth). `tri` is the candidate triangle it belongs to;
+ * `cell` the column's cell (2 x 2, raster order along then depth) whose diagonal `diag`
+ * (1: from the cell's first corner to its opposite, 2: the other) the point lies on, or
+ * RELIEF_STRIP_ANY_CELL with diag 0 for a point on the cells' sides or vertices, where
+ * neither diagonal matters. */
+#define RELIEF_STRIP_ANY_CELL 255
+#define RELIEF_STRIP_FINE_TERMS 4
+struct relief_strip_fine_point {
+	uint8_t tri, cell, diag, n;
+	int8_t s[RELIEF_STRIP_FINE_TERMS][2];
+	float w[RELIEF_STRIP_FINE_TERMS];
+};
+
+/* The points of the fine-edge column from along c0 (segments of so samples, so = 1, 2, 4;
+ * a ring at depth c = 2 so, every c along, inset by c from the block's ends) against the
+ * edge's own level: for every triangle the column can hold (an edge segment joined to a
+ * ring vertex of the column, a ring segment joined to a vertex of the edge), the cells'
+ * vertices on or in it and where its sides cross a cell's side or either diagonal.
+ * Writes at most `cap` of them to out (may be NULL with cap 0); returns how many there
+ * are. */
+int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap);
 
 /* The bounds of every block of a P-sample patch: `q` its quantised heights with the ring,
  * (P + 2)^2 in raster order (sample (x, y) at (y + 1) (P + 2) + x + 1), q2 metres per

@@ -15,7 +15,9 @@
 //        bounds (eps_0, the full resolution's, is known at the file's finest level only:
 //        half the largest twist of the edge's first row of cells);
 // [4..6] for an edge at level e = 0..2 against an interior one level coarser (e = 2 and an
-//        inner factor of 2 is a fan from the block's centre): D;
+//        inner factor of 2 is a fan from the block's centre): the charge of its fine-edge
+//        strips, the smaller of eps_(e+1) + D and eps_e + D_e (fine_edge_level_<so>;
+//        eps_0 at the finest level only: the first two rows' half twist);
 // [7]    0.
 // The LOD projects them (terrain_factors.glsl). No-data samples count with their decoded
 // heights: a triangle with a no-data corner still draws wherever its nearest sample is
@@ -75,6 +77,13 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 // triangulations, |T - L| peaks at M or where T's edge meets L's diagonal, a third of the
 // way up: (hB + 2 hM - hA - 2 hC) / 3 with the diagonal A-C, (hA + 2 hM - 2 hO - hB) / 3
 // with O-B (O, C the edge's ends, A, B the far side's, A above O).
+//
+// fine_edge_level_<so>: the same triangles against the edge's own level L_e (cells of so,
+// 2 x 2 in Q): their corners are L_e's vertices, so T - L_e peaks at L_e's vertices on or in
+// T or where T's sides cross a cell's side or diagonal (relief_strip_fine_points() lists
+// them); per triangle, each cell takes the better of its two diagonals (eps_e bounds
+// either). Until the twenty-third December session only the bound through Q was stored,
+// and an interior was raised where it failed though the edge's own level would have held.
 #include "strip_terms.glsl"
 
 void main()
@@ -91,15 +100,17 @@ void main()
 		strip_load();
 		uint ei = block_eps_index(pc.layer, bl, blocks);
 		vec4 eps = vec4(rec[ei], rec[ei + 1u], rec[ei + 2u], rec[ei + 3u]);
-		float e0 = pc.finest != 0 ? pc.q2 * first_row_eps() : uintBitsToFloat(0x7f800000u);
+		const float inf = uintBitsToFloat(0x7f800000u);
+		float e0 = pc.finest != 0 ? pc.q2 * first_rows_eps_1() : inf;
 		vec4 charge = strip_charges(eps, e0, pc.q2);
+		vec3 fine = fine_charges(eps, pc.finest != 0 ? pc.q2 * first_rows_eps_2() : inf, pc.q2);
 		rec[base + 0u] = charge.x;
 		rec[base + 1u] = charge.y;
 		rec[base + 2u] = charge.z;
 		rec[base + 3u] = charge.w;
-		rec[base + 4u] = pc.q2 * fine_edge_1();
-		rec[base + 5u] = pc.q2 * fine_edge_2();
-		rec[base + 6u] = pc.q2 * fine_edge_4();
+		rec[base + 4u] = fine.x;
+		rec[base + 5u] = fine.y;
+		rec[base + 6u] = fine.z;
 		rec[base + 7u] = 0.0;
 	}
 }

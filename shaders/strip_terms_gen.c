@@ -115,14 +115,15 @@ static void interior_edge(int so, int si)
 	emit("\treturn worst;\n}\n\n");
 }
 
-/* The twin's first_row_eps(), unrolled. */
-static void first_row_eps(void)
+/* The twin's first_rows_eps(rows), unrolled, as first_rows_eps_<rows>(). */
+static void first_rows_eps(int rows)
 {
-	emit("float first_row_eps()\n{\n\tfloat worst = 0.0;\n");
-	for (int k = 0; k < N; k++) {
-		emit("\tworst = max(worst, 0.5 * float(abs(%s + %s - ", smp(k, 0), smp(k + 1, 1));
-		emit("%s - %s)));\n", smp(k + 1, 0), smp(k, 1));
-	}
+	emit("float first_rows_eps_%d()\n{\n\tfloat worst = 0.0;\n", rows);
+	for (int r = 0; r < rows; r++)
+		for (int k = 0; k < N; k++) {
+			emit("\tworst = max(worst, 0.5 * float(abs(%s + %s - ", smp(k, r), smp(k + 1, r + 1));
+			emit("%s - %s)));\n", smp(k + 1, r), smp(k, r + 1));
+		}
 	emit("\treturn worst;\n}\n\n");
 }
 
@@ -164,6 +165,79 @@ static void fine_edge(int so)
 	emit("\treturn worst;\n}\n\n");
 }
 
+/* The twin's fine_edge_level(so), unrolled: the points of relief_strip_fine_points(), per
+ * candidate triangle the largest deviation on the cells' sides and vertices and, per
+ * cell, the smaller of the largest on either diagonal. */
+static void fine_edge_level(int so)
+{
+	static struct relief_strip_fine_point pts[512];
+	emit("float fine_edge_level_%d()\n{\n\tfloat worst = 0.0;\n", so);
+	for (int c0 = 0; c0 < N; c0 += 2 * so) {
+		const int np = relief_strip_fine_points(so, c0, pts, 512);
+		if (np > 512) {
+			fprintf(stderr, "strip terms: %d fine points in a column\n", np);
+			exit(1);
+		}
+		bool any[7] = { false }, cell[7][4][2] = { { { false } } };
+		for (int i = 0; i < np; i++) {
+			if (pts[i].cell == RELIEF_STRIP_ANY_CELL)
+				any[pts[i].tri] = true;
+			else
+				cell[pts[i].tri][pts[i].cell][pts[i].diag - 1] = true;
+		}
+		emit("\t{\n\t\tint ref = %s;\n", smp(c0, 0));
+		for (int t = 0; t < 7; t++) {
+			if (any[t])
+				emit("\t\tfloat a%d = 0.0;\n", t);
+			for (int k = 0; k < 4; k++)
+				for (int d = 0; d < 2; d++)
+					if (cell[t][k][d])
+						emit("\t\tfloat c%d_%d_%d = 0.0;\n", t, k, d);
+		}
+		for (int i = 0; i < np; i++) {
+			const struct relief_strip_fine_point *p = &pts[i];
+			emit("\t\t{\n\t\t\tprecise float d = ");
+			for (int k = 0; k < p->n; k++)
+				emit("%s%s * float(%s - ref)", k ? " + " : "", literal(p->w[k]), smp(p->s[k][0], p->s[k][1]));
+			if (p->cell == RELIEF_STRIP_ANY_CELL)
+				emit(";\n\t\t\ta%d = max(a%d, abs(d));\n\t\t}\n", p->tri, p->tri);
+			else
+				emit(";\n\t\t\tc%d_%d_%d = max(c%d_%d_%d, abs(d));\n\t\t}\n", p->tri, p->cell, p->diag - 1,
+				     p->tri, p->cell, p->diag - 1);
+		}
+		for (int t = 0; t < 7; t++) {
+			if (any[t])
+				emit("\t\tworst = max(worst, a%d);\n", t);
+			/* A cell with points on one diagonal only adds nothing: with the other, which
+			 * T's sides do not cross, T - L peaks on the cell's sides and vertices. */
+			for (int k = 0; k < 4; k++)
+				if (cell[t][k][0] && cell[t][k][1])
+					emit("\t\tworst = max(worst, min(c%d_%d_0, c%d_%d_1));\n", t, k, t, k);
+		}
+		emit("\t}\n");
+	}
+	emit("\treturn worst;\n}\n\n");
+}
+
+/* The twin's combination for fine-edge strips in relief_strip_bounds(): the charge of an
+ * edge at levels 0..2 from eps_1..eps_4 (eps), eps_0 over the first two rows (e0,
+ * infinite where unknown) and the metres per quantum q2. */
+static void fine_charges(void)
+{
+	emit("vec3 fine_charges(vec4 eps, float e0, float q2)\n{\n\tvec3 charge;\n"
+	     "\tconst float inf = uintBitsToFloat(0x7f800000u);\n");
+	for (int l = 0; l <= 2; l++) {
+		emit("\t{\n\t\tprecise float b1 = eps[%d] + q2 * fine_edge_%d();\n", l, 1 << l);
+		if (l == 0)
+			emit("\t\tfloat el = e0;\n");
+		else
+			emit("\t\tfloat el = eps[%d];\n", l - 1);
+		emit("\t\tprecise float b2 = isinf(el) ? inf : el + q2 * fine_edge_level_%d();\n", 1 << l);
+		emit("\t\tcharge[%d] = min(b1, b2);\n\t}\n", l);
+	}
+	emit("\treturn charge;\n}\n\n");
+}
+
 static void terms(void)
 {
 	for (int so = 2; so <= N; so *= 2)
@@ -171,10 +245,14 @@ static void terms(void)
 			coarse_edge(so, si);
 			interior_edge(so, si);
 		}
-	first_row_eps();
+	first_rows_eps(1);
+	first_rows_eps(2);
 	charges();
-	for (int so = 1; so <= 4; so *= 2)
+	for (int so = 1; so <= 4; so *= 2) {
 		fine_edge(so);
+		fine_edge_level(so);
+	}
+	fine_charges();
 }
 
 int main(int argc, char **argv)

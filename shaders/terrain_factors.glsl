@@ -65,8 +65,8 @@ vec4 edge_eps_at(int layer, ivec2 bl, uint edge, vec4 eps)
 	return e;
 }
 
-// D of a strip along edge `edge` of block bl at level d = 0..2 against an interior at d + 1
-// (a fan from the centre at d = 2).
+// The charge of a strip along edge `edge` of block bl at level d = 0..2 against an interior
+// at d + 1 (a fan from the centre at d = 2): how far it can lie from the finest surface.
 float strip_fine_at(int layer, ivec2 bl, uint edge, int d)
 {
 	return block_err[block_strip_index(layer, bl, edge, pc.blocks) + 4u + uint(d)];
@@ -271,8 +271,8 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 		if (eps[d - 1] <= allowed)
 			break;
 	// One level coarser than the finest edge makes a fine-edge strip (or a fan) along each
-	// edge at that level: kept only where eps_d plus its D projects within tau at the
-	// edge's points and the block's centre, else the interior takes the finest edge's
+	// edge at that level: kept only where its charge (strip_fine_at()) projects within tau
+	// at the edge's points and the block's centre, else the interior takes the finest edge's
 	// level, which leaves strips along coarser edges only, which their edges' own levels
 	// bound (edge_eps_at()). A level-4 interior (factor 1, drawn as the centre alone) is
 	// no coarser than it looks against edges of 2 segments.
@@ -282,7 +282,7 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 		for (uint k = 0u; k < 4u && d > finest; k++) {
 			if (edges[k] != finest_edge)
 				continue;
-			float e = eps[d - 1] + strip_fine_at(it.layer, bl, k, finest);
+			float e = strip_fine_at(it.layer, bl, k, finest);
 			ivec3 q = edge_points(k);
 			if (e > min(min(at[q.x], at[q.y]), min(at[q.z], at[4]))) // a fan reaches the centre
 				d = finest;

@@ -4,9 +4,9 @@
  * within one column of the strip) measured densely against both triangulations of its
  * column's square, the better one kept, and, for a coarse-edge strip, against the finer
  * interior's triangulation (either diagonal in every cell): the stored charge is never
- * below the smaller of the two bounds those give with the block's errors, and the
- * fine-edge bounds never below the first; and a single bump gives the values worked out
- * by hand. */
+ * below the smaller of the two bounds those give with the block's errors; for a fine-edge
+ * strip, against its square and against the edge's own level's cells (the better diagonal
+ * in every cell), likewise; and a single bump gives the values worked out by hand. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdbool.h>
@@ -112,13 +112,43 @@ static double triangle_bound(int bx, int by, int edge, double c0, double c, cons
 	return fmin(worst_against(&t, h, c0, c, 0), worst_against(&t, h, c0, c, 1));
 }
 
-/* Half the largest twist of the first row of cells along the edge, quanta. */
-static double first_row_twist(int bx, int by, int edge)
+/* The largest |T - L_e| over T, densely sampled, L_e the triangulation of the cells of
+ * side so in the fine-edge column from along c0 (2 x 2 cells, depth 0 to 2 so), with the
+ * better diagonal in each cell. */
+static double worst_against_level(int bx, int by, int edge, const struct tri *t, int c0, int so)
+{
+	double worst[2][2][2] = { { { 0 } } }; /* [row][column][diagonal] */
+	for (int i = 0; i <= DENSE; i++)
+		for (int j = 0; i + j <= DENSE; j++) {
+			double a, d, z;
+			tri_point(t, i, j, &a, &d, &z);
+			int cx = (int)floor((a - c0) / so), cy = (int)floor(d / so);
+			cx = cx > 1 ? 1 : cx;
+			cy = cy > 1 ? 1 : cy;
+			const int x0 = c0 + cx * so, y0 = cy * so;
+			double u = (a - x0) / so, v = (d - y0) / so;
+			double h00 = sample(bx, by, edge, x0, y0), h10 = sample(bx, by, edge, x0 + so, y0);
+			double h01 = sample(bx, by, edge, x0, y0 + so), h11 = sample(bx, by, edge, x0 + so, y0 + so);
+			double lz0 = u >= v ? h00 + u * (h10 - h00) + v * (h11 - h10) : h00 + v * (h01 - h00) + u * (h11 - h01);
+			double lz1 = u + v <= 1 ? h00 + u * (h10 - h00) + v * (h01 - h00)
+			                        : h11 + (1 - u) * (h01 - h11) + (1 - v) * (h10 - h11);
+			worst[cy][cx][0] = fmax(worst[cy][cx][0], fabs(z - lz0));
+			worst[cy][cx][1] = fmax(worst[cy][cx][1], fabs(z - lz1));
+		}
+	double w = 0;
+	for (int k = 0; k < 4; k++)
+		w = fmax(w, fmin(worst[k / 2][k % 2][0], worst[k / 2][k % 2][1]));
+	return w;
+}
+
+/* Half the largest twist of the first `rows` rows of cells along the edge, quanta. */
+static double first_rows_twist(int bx, int by, int edge, int rows)
 {
 	double worst = 0;
-	for (int k = 0; k < N; k++)
-		worst = fmax(worst, 0.5 * fabs(sample(bx, by, edge, k, 0) + sample(bx, by, edge, k + 1, 1) -
-		                               sample(bx, by, edge, k + 1, 0) - sample(bx, by, edge, k, 1)));
+	for (int r = 0; r < rows; r++)
+		for (int k = 0; k < N; k++)
+			worst = fmax(worst, 0.5 * fabs(sample(bx, by, edge, k, r) + sample(bx, by, edge, k + 1, r + 1) -
+			                               sample(bx, by, edge, k + 1, r) - sample(bx, by, edge, k, r + 1)));
 	return worst;
 }
 
@@ -130,7 +160,14 @@ static double first_row_twist(int bx, int by, int edge)
  * of the charge worked out here from the dense measures (per level pair, the smaller of
  * the largest bounds of each kind) to the stored one: close to 1 when relief_strip_bounds()
  * finds the same maxima (the dense grid may miss a peak slightly). */
-static double check_candidates(const float *out, double q2, const float *eps, bool finest)
+/* What the fine-edge checks saw: the largest ratio as for the coarse-edge charges, and how
+ * many edge levels the edge's own level bounded more tightly than the column's square. */
+struct fine_seen {
+	double ratio;
+	unsigned own_level;
+};
+
+static double check_candidates(const float *out, double q2, const float *eps, bool finest, struct fine_seen *fine)
 {
 	double ratio = 0;
 	for (int by = 0; by < B; by++)
@@ -138,7 +175,7 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 			for (int edge = 0; edge < 4; edge++) {
 				const float *r = out + ((size_t)(by * B + bx) * 4 + (size_t)edge) * RELIEF_STRIP_FLOATS;
 				const float *eb = eps + (size_t)(by * B + bx) * 4;
-				const double e0 = finest ? q2 * first_row_twist(bx, by, edge) : INFINITY;
+				const double e0 = finest ? q2 * first_rows_twist(bx, by, edge, 1) : INFINITY;
 				/* coarse-edge strips: an edge of segments so, rings at si < so */
 				for (int e = 1; e <= 4; e++) {
 					const int so = 1 << e;
@@ -173,28 +210,44 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 					if (charge > 0)
 						ratio = fmax(ratio, charge / stored);
 				}
-				/* fine-edge strips: an edge of segments so, a ring at c = 2 so (quanta) */
+				/* fine-edge strips: an edge of segments so, a ring at c = 2 so, against an
+				 * interior at e + 1: each triangle within the smaller of eps_(e+1) + its D
+				 * against the column's square and eps_e + its D against the edge's level */
+				const double e0_2 = finest ? q2 * first_rows_twist(bx, by, edge, 2) : INFINITY;
 				for (int e = 0; e <= 2; e++) {
 					const int so = 1 << e, c = 2 * so;
-					const double bound = r[4 + e] / q2 * (1 + 1e-5) + 1e-6;
+					const double stored = r[4 + e] * (1 + 1e-5) + 1e-6, ee = e == 0 ? e0_2 : eb[e - 1];
+					double worst_q = 0, worst_e = 0;
 					for (int c0 = 0; c0 < N; c0 += c) {
-						double w = 0;
+						int tris[7][3][2], nt = 0;
 						for (int end = 0; end < 2; end++) {
 							const int top = end ? c0 + c : c0;
 							if (top < c || top > N - c)
 								continue; /* the ring is inset from the block's corners */
 							for (int s = 0; s < 2; s++) {
 								const int seg[3][2] = { { c0 + s * so, 0 }, { c0 + (s + 1) * so, 0 }, { top, c } };
-								w = fmax(w, triangle_bound(bx, by, edge, c0, c, seg));
+								memcpy(tris[nt++], seg, sizeof(seg));
 							}
 						}
 						if (c0 >= c && c0 + c <= N - c)
 							for (int v = 0; v <= 2; v++) {
 								const int tent[3][2] = { { c0, c }, { c0 + c, c }, { c0 + v * so, 0 } };
-								w = fmax(w, triangle_bound(bx, by, edge, c0, c, tent));
+								memcpy(tris[nt++], tent, sizeof(tent));
 							}
-						assert_true(w <= bound);
+						for (int k = 0; k < nt; k++) {
+							struct tri tt;
+							fill_tri(bx, by, edge, (const int(*)[2])tris[k], &tt);
+							const double dq = triangle_bound(bx, by, edge, c0, c, (const int(*)[2])tris[k]);
+							const double de = worst_against_level(bx, by, edge, &tt, c0, so);
+							assert_true(fmin(eb[e] + q2 * dq, ee + q2 * de) <= stored);
+							worst_q = fmax(worst_q, dq);
+							worst_e = fmax(worst_e, de);
+						}
 					}
+					const double charge = fmin(eb[e] + q2 * worst_q, ee + q2 * worst_e);
+					if (charge > 0)
+						fine->ratio = fmax(fine->ratio, charge / stored);
+					fine->own_level += ee + q2 * worst_e < eb[e] + q2 * worst_q;
 				}
 			}
 	return ratio;
@@ -207,6 +260,7 @@ static void test_random_patches_within_bounds(void **state)
 	float eps[B * B * 4];
 	srand(7);
 	double ratio = 0;
+	struct fine_seen fine = { 0 };
 	for (int run = 0; run < 6; run++) {
 		const int amp = run % 2 ? 20 : 2000; /* rough and gentle */
 		for (size_t k = 0; k < sizeof(q) / sizeof(q[0]); k++)
@@ -217,11 +271,15 @@ static void test_random_patches_within_bounds(void **state)
 				eps[b * 4 + l] = (float)(0.25 * amp * (l + 1) * (rand() % 100) / 50.0);
 		const bool finest = run < 4;
 		assert_int_equal(relief_strip_bounds(q, P, 0.25f, eps, finest, out), 0);
-		ratio = fmax(ratio, check_candidates(out, 0.25, eps, finest));
+		ratio = fmax(ratio, check_candidates(out, 0.25, eps, finest, &fine));
 	}
 	/* The charge is reached, not only respected: the dense measures come close to it. */
-	print_message("largest charge from the dense measures over the stored one: %.3f\n", ratio);
+	print_message("largest charge from the dense measures over the stored one: %.3f coarse-edge, %.3f fine-edge "
+	              "(%u fine-edge charges from the edge's own level)\n",
+	              ratio, fine.ratio, fine.own_level);
 	assert_true(ratio > 0.95);
+	assert_true(fine.ratio > 0.95);
+	assert_true(fine.own_level > 0);
 	free(out);
 }
 
