@@ -192,16 +192,16 @@ static float fine_edge(const struct strip *s, int so)
 }
 
 /* Fine-edge strips against the edge's own level L_e (cells of so): a candidate triangle T
- * has its corners on samples, so T - L_e is linear on each piece of T that the cells'
- * sides and the diagonal chosen in each cell cut, and peaks at the cells' vertices on or
- * in T or where T's sides cross a cell's side or diagonal. */
-static int add_fine(struct relief_strip_fine_point *out, int cap, int k, int tri, int cell, int diag, int n,
-                    const int (*pts)[2], const double *w)
+ * has its corners on L_e's vertices, so with the diagonal in each cell that T's sides do
+ * not cross, T - L_e is linear on each piece of T that the cells' sides cut, and peaks at
+ * L_e's vertices on or in T or where T's sides cross a cell's side (the weights of both
+ * ends, T's and L_e's). test_strip_bound checks the result against a dense evaluation. */
+static int add_fine(struct relief_strip_fine_point *out, int cap, int k, const int (*pts)[2], const double *w)
 {
 	if (out && k < cap) {
 		struct relief_strip_fine_point *p = &out[k];
-		*p = (struct relief_strip_fine_point){ .tri = (uint8_t)tri, .cell = (uint8_t)cell, .diag = (uint8_t)diag };
-		for (int i = 0; i < n; i++)
+		p->n = 0;
+		for (int i = 0; i < RELIEF_STRIP_FINE_TERMS; i++)
 			if (w[i] != 0.0) {
 				p->s[p->n][0] = (int8_t)pts[i][0];
 				p->s[p->n][1] = (int8_t)pts[i][1];
@@ -250,7 +250,7 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
 	int k = 0;
 	for (int t = 0; t < nt; t++) {
 		const int *const *p = tris[t];
-		/* the cells' vertices on or in T, its corners left out */
+		/* the cells' vertices on or in T, its corners left out: barycentric weights */
 		const double det = (double)(p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) -
 		                   (double)(p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
 		for (int j = 0; j <= 2; j++)
@@ -264,11 +264,11 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
 				if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9 || l0 > 1 - 1e-9 || l1 > 1 - 1e-9 || l2 > 1 - 1e-9)
 					continue;
 				const int pts[4][2] = { { p[0][0], p[0][1] }, { p[1][0], p[1][1] }, { p[2][0], p[2][1] }, { g[0], g[1] } };
-				k = add_fine(out, cap, k, t, RELIEF_STRIP_ANY_CELL, 0, 4, pts, (const double[]){ l0, l1, l2, -1.0 });
+				k = add_fine(out, cap, k, pts, (const double[]){ l0, l1, l2, -1.0 });
 			}
+		/* T's sides across the cells' sides (segments between neighbouring vertices) */
 		for (int e = 0; e < 3; e++) {
 			const int *pa = p[e], *pb = p[(e + 1) % 3];
-			/* the cells' sides: the segments between neighbouring vertices */
 			for (int j = 0; j <= 2; j++)
 				for (int i = 0; i <= 2; i++)
 					for (int dir = 0; dir < 2; dir++) {
@@ -278,29 +278,17 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
 						if (g1[0] > c0 + c || g1[1] > c || !crossing(pa, pb, g0, g1, &u, &v))
 							continue;
 						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { g1[0], g1[1] } };
-						k = add_fine(out, cap, k, t, RELIEF_STRIP_ANY_CELL, 0, 4, pts,
-						             (const double[]){ 1 - u, u, -(1 - v), -v });
+						k = add_fine(out, cap, k, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
 					}
-			/* either diagonal of each cell */
-			for (int cell = 0; cell < 4; cell++)
-				for (int diag = 1; diag <= 2; diag++) {
-					const int x0 = c0 + (cell % 2) * so, y0 = (cell / 2) * so;
-					const int g0[2] = { diag == 1 ? x0 : x0 + so, y0 }, g1[2] = { diag == 1 ? x0 + so : x0, y0 + so };
-					double u, v;
-					if (!crossing(pa, pb, g0, g1, &u, &v))
-						continue;
-					const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { g1[0], g1[1] } };
-					k = add_fine(out, cap, k, t, cell, diag, 4, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
-				}
 		}
 	}
 	return k;
 }
 
-enum { FINE_POINTS_MAX = 512 };
+enum { FINE_POINTS_MAX = 256 };
 
-/* The largest deviation of a fine-edge strip (segments so) from the edge's own level, per
- * candidate triangle with the better diagonal in each cell, quanta. */
+/* The largest deviation of a fine-edge strip (segments so) from the edge's own level,
+ * quanta. */
 static float fine_edge_level(const struct strip *s, int so)
 {
 	struct relief_strip_fine_point pts[FINE_POINTS_MAX];
@@ -308,22 +296,12 @@ static float fine_edge_level(const struct strip *s, int so)
 	for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += 2 * so) {
 		const int np = relief_strip_fine_points(so, c0, pts, FINE_POINTS_MAX);
 		const int32_t ref = h(s, c0, 0);
-		float any[7] = { 0 }, cell[7][4][2] = { { { 0 } } };
 		for (int i = 0; i < np && i < FINE_POINTS_MAX; i++) {
 			const struct relief_strip_fine_point *p = &pts[i];
 			float d = p->w[0] * (float)(h(s, p->s[0][0], p->s[0][1]) - ref);
 			for (int t = 1; t < p->n; t++)
 				d = d + p->w[t] * (float)(h(s, p->s[t][0], p->s[t][1]) - ref);
-			if (p->cell == RELIEF_STRIP_ANY_CELL)
-				any[p->tri] = fmaxf(any[p->tri], fabsf(d));
-			else
-				cell[p->tri][p->cell][p->diag - 1] = fmaxf(cell[p->tri][p->cell][p->diag - 1], fabsf(d));
-		}
-		for (int t = 0; t < 7; t++) {
-			float v = any[t];
-			for (int k = 0; k < 4; k++)
-				v = fmaxf(v, fminf(cell[t][k][0], cell[t][k][1]));
-			worst = fmaxf(worst, v);
+			worst = fmaxf(worst, fabsf(d));
 		}
 	}
 	return worst;

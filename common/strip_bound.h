@@ -47,17 +47,12 @@ void relief_strip_ring(int c0, int so, int si, int *first, int *last);
 int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_point *out, int cap);
 
 /* One point where a fine-edge strip triangle may deviate most from the triangulation of
- * the edge's own level (cells of so samples, in the column's square of side 2 so): its
- * deviation there is the sum of w h(s) over the terms (the weights sum to zero), h(s) the
- * height of sample s = (along, depth). `tri` is the candidate triangle it belongs to;
- * `cell` the column's cell (2 x 2, raster order along then depth) whose diagonal `diag`
- * (1: from the cell's first corner to its opposite, 2: the other) the point lies on, or
- * RELIEF_STRIP_ANY_CELL with diag 0 for a point on the cells' sides or vertices, where
- * neither diagonal matters. */
-#define RELIEF_STRIP_ANY_CELL 255
+ * the edge's own level (cells of so samples, 2 x 2 of them in the column's square of side
+ * 2 so): its deviation there is the sum of w h(s) over the n terms (the weights sum to
+ * zero), h(s) the height of sample s = (along, depth). */
 #define RELIEF_STRIP_FINE_TERMS 4
 struct relief_strip_fine_point {
-	uint8_t tri, cell, diag, n;
+	int n;
 	int8_t s[RELIEF_STRIP_FINE_TERMS][2];
 	float w[RELIEF_STRIP_FINE_TERMS];
 };
@@ -66,9 +61,10 @@ struct relief_strip_fine_point {
  * a ring at depth c = 2 so, every c along, inset by c from the block's ends) against the
  * edge's own level: for every triangle the column can hold (an edge segment joined to a
  * ring vertex of the column, a ring segment joined to a vertex of the edge), the cells'
- * vertices on or in it and where its sides cross a cell's side or either diagonal.
- * Writes at most `cap` of them to out (may be NULL with cap 0); returns how many there
- * are. */
+ * vertices on or in it and where its sides cross a cell's side. No side of these triangles
+ * crosses both diagonals of one cell, so each cell can take the diagonal that no side
+ * crosses (the errors bound either), and T - L then peaks at those points. Writes at most
+ * `cap` of them to out (may be NULL with cap 0); returns how many there are. */
 int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap);
 
 /* The bounds of every block of a P-sample patch: `q` its quantised heights with the ring,

@@ -79,11 +79,12 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 // with O-B (O, C the edge's ends, A, B the far side's, A above O).
 //
 // fine_edge_level_<so>: the same triangles against the edge's own level L_e (cells of so,
-// 2 x 2 in Q): their corners are L_e's vertices, so T - L_e peaks at L_e's vertices on or in
-// T or where T's sides cross a cell's side or diagonal (relief_strip_fine_points() lists
-// them); per triangle, each cell takes the better of its two diagonals (eps_e bounds
-// either). Until the twenty-third December session only the bound through Q was stored,
-// and an interior was raised where it failed though the edge's own level would have held.
+// 2 x 2 in Q): their corners are L_e's vertices, and no side of theirs crosses both
+// diagonals of a cell, so with the diagonal no side crosses in each cell (eps_e bounds
+// either), T - L_e peaks at L_e's vertices on or in T or where T's sides cross a cell's
+// side (relief_strip_fine_points() lists them). Until the twenty-third December session
+// only the bound through Q was stored, and an interior was raised where it failed though
+// the edge's own level would have held.
 #include "strip_terms.glsl"
 
 void main()

@@ -165,54 +165,24 @@ static void fine_edge(int so)
 	emit("\treturn worst;\n}\n\n");
 }
 
-/* The twin's fine_edge_level(so), unrolled: the points of relief_strip_fine_points(), per
- * candidate triangle the largest deviation on the cells' sides and vertices and, per
- * cell, the smaller of the largest on either diagonal. */
+/* The twin's fine_edge_level(so), unrolled: the points of relief_strip_fine_points(). */
 static void fine_edge_level(int so)
 {
-	static struct relief_strip_fine_point pts[512];
+	static struct relief_strip_fine_point pts[256];
 	emit("float fine_edge_level_%d()\n{\n\tfloat worst = 0.0;\n", so);
 	for (int c0 = 0; c0 < N; c0 += 2 * so) {
-		const int np = relief_strip_fine_points(so, c0, pts, 512);
-		if (np > 512) {
-			fprintf(stderr, "strip terms: %d fine points in a column\n", np);
+		const int np = relief_strip_fine_points(so, c0, pts, 256);
+		if (np > 256) {
+			fprintf(stderr, "strip terms: %d fine-edge points in a column\n", np);
 			exit(1);
 		}
-		bool any[7] = { false }, cell[7][4][2] = { { { false } } };
-		for (int i = 0; i < np; i++) {
-			if (pts[i].cell == RELIEF_STRIP_ANY_CELL)
-				any[pts[i].tri] = true;
-			else
-				cell[pts[i].tri][pts[i].cell][pts[i].diag - 1] = true;
-		}
 		emit("\t{\n\t\tint ref = %s;\n", smp(c0, 0));
-		for (int t = 0; t < 7; t++) {
-			if (any[t])
-				emit("\t\tfloat a%d = 0.0;\n", t);
-			for (int k = 0; k < 4; k++)
-				for (int d = 0; d < 2; d++)
-					if (cell[t][k][d])
-						emit("\t\tfloat c%d_%d_%d = 0.0;\n", t, k, d);
-		}
 		for (int i = 0; i < np; i++) {
 			const struct relief_strip_fine_point *p = &pts[i];
 			emit("\t\t{\n\t\t\tprecise float d = ");
 			for (int k = 0; k < p->n; k++)
 				emit("%s%s * float(%s - ref)", k ? " + " : "", literal(p->w[k]), smp(p->s[k][0], p->s[k][1]));
-			if (p->cell == RELIEF_STRIP_ANY_CELL)
-				emit(";\n\t\t\ta%d = max(a%d, abs(d));\n\t\t}\n", p->tri, p->tri);
-			else
-				emit(";\n\t\t\tc%d_%d_%d = max(c%d_%d_%d, abs(d));\n\t\t}\n", p->tri, p->cell, p->diag - 1,
-				     p->tri, p->cell, p->diag - 1);
-		}
-		for (int t = 0; t < 7; t++) {
-			if (any[t])
-				emit("\t\tworst = max(worst, a%d);\n", t);
-			/* A cell with points on one diagonal only adds nothing: with the other, which
-			 * T's sides do not cross, T - L peaks on the cell's sides and vertices. */
-			for (int k = 0; k < 4; k++)
-				if (cell[t][k][0] && cell[t][k][1])
-					emit("\t\tworst = max(worst, min(c%d_%d_0, c%d_%d_1));\n", t, k, t, k);
+			emit(";\n\t\t\tworst = max(worst, abs(d));\n\t\t}\n");
 		}
 		emit("\t}\n");
 	}
