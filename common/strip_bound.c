@@ -114,10 +114,13 @@ int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_poi
 
 /* The points of every column of every pair of levels (edge e = 1..4, interior i < e),
  * listed once per relief_strip_bounds() call: points[e - 1][i] holds the columns' points
- * in column order. */
+ * in column order. Likewise the fine-edge points of an edge at level e = 0..2: column k's
+ * are fine[e][first[e][k]] up to fine[e][first[e][k + 1]]. */
 struct strip_points {
 	struct relief_strip_point *p[4][4];
 	int n[4][4];
+	struct relief_strip_fine_point *fine[3];
+	int first[3][RELIEF_BLOCK_CELLS / 2 + 1];
 };
 
 static int strip_points_init(struct strip_points *sp)
@@ -135,6 +138,17 @@ static int strip_points_init(struct strip_points *sp)
 				sp->n[e - 1][i] += relief_strip_interior_points(so, si, c0, sp->p[e - 1][i] + sp->n[e - 1][i],
 				                                                n - sp->n[e - 1][i]);
 		}
+	for (int e = 0; e <= 2; e++) {
+		const int c = 2 << e, columns = RELIEF_BLOCK_CELLS / c;
+		int n = 0;
+		for (int k = 0; k < columns; k++)
+			n += relief_strip_fine_points(1 << e, k * c, NULL, 0);
+		if (!(sp->fine[e] = malloc(sizeof(struct relief_strip_fine_point) * (size_t)n)))
+			return -1;
+		for (int k = 0; k < columns; k++)
+			sp->first[e][k + 1] = sp->first[e][k] + relief_strip_fine_points(1 << e, k * c, sp->fine[e] + sp->first[e][k],
+			                                                                  n - sp->first[e][k]);
+	}
 	return 0;
 }
 
@@ -143,6 +157,8 @@ static void strip_points_finish(struct strip_points *sp)
 	for (int e = 0; e < 4; e++)
 		for (int i = 0; i < 4; i++)
 			free(sp->p[e][i]);
+	for (int e = 0; e <= 2; e++)
+		free(sp->fine[e]);
 }
 
 /* The largest deviation of a coarse-edge strip (segments 2^e) from the triangulation of
@@ -285,19 +301,15 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
 	return k;
 }
 
-enum { FINE_POINTS_MAX = 256 };
-
-/* The largest deviation of a fine-edge strip (segments so) from the edge's own level,
- * quanta. */
-static float fine_edge_level(const struct strip *s, int so)
+/* The largest deviation of a fine-edge strip along an edge at level e (segments 2^e) from
+ * the edge's own level, over the points relief_strip_fine_points() gives, quanta. */
+static float fine_edge_level(const struct strip *s, const struct strip_points *sp, int e)
 {
-	struct relief_strip_fine_point pts[FINE_POINTS_MAX];
 	float worst = 0.0f;
-	for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += 2 * so) {
-		const int np = relief_strip_fine_points(so, c0, pts, FINE_POINTS_MAX);
-		const int32_t ref = h(s, c0, 0);
-		for (int i = 0; i < np && i < FINE_POINTS_MAX; i++) {
-			const struct relief_strip_fine_point *p = &pts[i];
+	for (int k = 0; k < RELIEF_BLOCK_CELLS / (2 << e); k++) {
+		const int32_t ref = h(s, k * (2 << e), 0);
+		for (int i = sp->first[e][k]; i < sp->first[e][k + 1]; i++) {
+			const struct relief_strip_fine_point *p = &sp->fine[e][i];
 			float d = p->w[0] * (float)(h(s, p->s[0][0], p->s[0][1]) - ref);
 			for (int t = 1; t < p->n; t++)
 				d = d + p->w[t] * (float)(h(s, p->s[t][0], p->s[t][1]) - ref);
@@ -340,7 +352,7 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			for (int l = 0; l <= 2; l++) {
 				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
 				const float el = l == 0 ? e0_2 : eb[l - 1];
-				const float b2 = isinf(el) ? INFINITY : el + q2 * fine_edge_level(&s, 1 << l);
+				const float b2 = isinf(el) ? INFINITY : el + q2 * fine_edge_level(&s, &sp, l);
 				r[4 + l] = fminf(b1, b2);
 			}
 			r[7] = 0.0f;

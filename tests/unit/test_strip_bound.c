@@ -71,6 +71,16 @@ static double worst_against(const struct tri *t, const double h[4], double c0, d
 	return worst;
 }
 
+/* At (u, v) in the cell of side si from sample (x0, y0) (along, depth), the cell's
+ * triangulation by the diagonal from (x0, y0) (*lz0) and by the other (*lz1). */
+static void cell_planes(int bx, int by, int edge, int x0, int y0, int si, double u, double v, double *lz0, double *lz1)
+{
+	double h00 = sample(bx, by, edge, x0, y0), h10 = sample(bx, by, edge, x0 + si, y0);
+	double h01 = sample(bx, by, edge, x0, y0 + si), h11 = sample(bx, by, edge, x0 + si, y0 + si);
+	*lz0 = u >= v ? h00 + u * (h10 - h00) + v * (h11 - h10) : h00 + v * (h01 - h00) + u * (h11 - h01);
+	*lz1 = u + v <= 1 ? h00 + u * (h10 - h00) + v * (h01 - h00) : h11 + (1 - u) * (h01 - h11) + (1 - v) * (h10 - h11);
+}
+
 /* The largest |T - L_i| over T, densely sampled, L_i the triangulation of the cells of
  * side si along the edge (depth 0 to si), the worse of both diagonals at every point. */
 static double worst_against_cells(int bx, int by, int edge, const struct tri *t, int si)
@@ -82,12 +92,8 @@ static double worst_against_cells(int bx, int by, int edge, const struct tri *t,
 			tri_point(t, i, j, &a, &d, &z);
 			int x0 = (int)floor(a / si) * si;
 			x0 = x0 > N - si ? N - si : x0;
-			double u = (a - x0) / si, v = d / si;
-			double h00 = sample(bx, by, edge, x0, 0), h10 = sample(bx, by, edge, x0 + si, 0);
-			double h01 = sample(bx, by, edge, x0, si), h11 = sample(bx, by, edge, x0 + si, si);
-			double lz0 = u >= v ? h00 + u * (h10 - h00) + v * (h11 - h10) : h00 + v * (h01 - h00) + u * (h11 - h01);
-			double lz1 = u + v <= 1 ? h00 + u * (h10 - h00) + v * (h01 - h00)
-			                        : h11 + (1 - u) * (h01 - h11) + (1 - v) * (h10 - h11);
+			double lz0, lz1;
+			cell_planes(bx, by, edge, x0, 0, si, (a - x0) / si, d / si, &lz0, &lz1);
 			worst = fmax(worst, fmax(fabs(z - lz0), fabs(z - lz1)));
 		}
 	return worst;
@@ -126,12 +132,8 @@ static double worst_against_level(int bx, int by, int edge, const struct tri *t,
 			cx = cx > 1 ? 1 : cx;
 			cy = cy > 1 ? 1 : cy;
 			const int x0 = c0 + cx * so, y0 = cy * so;
-			double u = (a - x0) / so, v = (d - y0) / so;
-			double h00 = sample(bx, by, edge, x0, y0), h10 = sample(bx, by, edge, x0 + so, y0);
-			double h01 = sample(bx, by, edge, x0, y0 + so), h11 = sample(bx, by, edge, x0 + so, y0 + so);
-			double lz0 = u >= v ? h00 + u * (h10 - h00) + v * (h11 - h10) : h00 + v * (h01 - h00) + u * (h11 - h01);
-			double lz1 = u + v <= 1 ? h00 + u * (h10 - h00) + v * (h01 - h00)
-			                        : h11 + (1 - u) * (h01 - h11) + (1 - v) * (h10 - h11);
+			double lz0, lz1;
+			cell_planes(bx, by, edge, x0, y0, so, (a - x0) / so, (d - y0) / so, &lz0, &lz1);
 			worst[cy][cx][0] = fmax(worst[cy][cx][0], fabs(z - lz0));
 			worst[cy][cx][1] = fmax(worst[cy][cx][1], fabs(z - lz1));
 		}
