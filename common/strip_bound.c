@@ -319,7 +319,8 @@ static float fine_edge_level(const struct strip *s, const struct strip_points *s
 	return worst;
 }
 
-int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps, bool finest, float *out)
+int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps, bool finest, float e0_patch,
+                        float *out)
 {
 	const uint32_t blocks = (P - 1) / RELIEF_BLOCK_CELLS;
 	struct strip s = { .q = q, .P = (int)P };
@@ -335,8 +336,9 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			s.edge = e;
 			float *r = out + ((size_t)b * 4 + (size_t)e) * RELIEF_STRIP_FLOATS;
 			const float *eb = eps + (size_t)b * 4;
-			/* eps_0 is known at the finest level only (the patch is the finest surface). */
-			const float e0 = finest ? q2 * first_rows_eps(&s, 1) : INFINITY;
+			/* eps_0: at the finest level from the block's own samples (the patch is the
+			 * finest surface), above it the caller's bound for the whole patch */
+			const float e0 = finest ? q2 * first_rows_eps(&s, 1) : e0_patch;
 			for (int l = 1; l <= 4; l++) {
 				float charge = 0.0f;
 				for (int i = 0; i < l; i++) {
@@ -347,8 +349,8 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 				}
 				r[l - 1] = charge;
 			}
-			/* eps_0 over the two rows a strip at level 0 spans (the finest level only) */
-			const float e0_2 = finest ? q2 * first_rows_eps(&s, 2) : INFINITY;
+			/* and over the two rows a fine-edge strip at level 0 spans */
+			const float e0_2 = finest ? q2 * first_rows_eps(&s, 2) : e0_patch;
 			for (int l = 0; l <= 2; l++) {
 				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
 				const float el = l == 0 ? e0_2 : eb[l - 1];

@@ -16,6 +16,8 @@ struct Job {
 	float inv_2sx;  // 1 / (2 x spacing) at the patch's level, 1/m
 	float inv_2sy;
 	int finest;     // 1: the patch is at the file's finest level
+	float e0;       // above it, how far the patch at full detail can lie from the finest
+	                // surface (E0(P)), metres, or infinity if the file does not say
 };
 layout(std430, binding = 4) readonly buffer Jobs { Job jobs[]; };
 layout(push_constant) uniform Push { uint first_job; } push;

@@ -12,12 +12,13 @@
 // the samples. Per block and edge (west, north, east, south) this pass stores, in metres:
 // [0..3] for an edge at level e = 1..4 (segments of 2^e samples), the charge of its
 //        coarse-edge strips: over every finer interior level i, the smaller of the two
-//        bounds (eps_0, the full resolution's, is known at the file's finest level only:
-//        half the largest twist of the edge's first row of cells);
+//        bounds (eps_0, the full resolution's: at the file's finest level half the largest
+//        twist of the edge's first row of cells, above it the patch's drawn error E0(P)
+//        where the file stores it);
 // [4..6] for an edge at level e = 0..2 against an interior one level coarser (e = 2 and an
 //        inner factor of 2 is a fan from the block's centre): the charge of its fine-edge
 //        strips, the smaller of eps_(e+1) + D and eps_e + D_e (fine_edge_level_<so>;
-//        eps_0 at the finest level only: the first two rows' half twist);
+//        eps_0 at the finest level from the first two rows, above it E0(P));
 // [7]    0.
 // The LOD projects them (terrain_factors.glsl). No-data samples count with their decoded
 // heights: a triangle with a no-data corner still draws wherever its nearest sample is
@@ -63,8 +64,8 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 // cuts on T's sides (relief_strip_interior_points() lists them) or at the samples on the
 // edge segment.
 //
-// first_row_eps: half the largest twist of the cells from depth 0 to 1; at the finest
-// level, how far the full resolution with either diagonal lies from the finest surface
+// first_rows_eps_<rows>: half the largest twist of the cells from depth 0 to rows; at the
+// finest level, how far the full resolution with either diagonal lies from the finest surface
 // where strips against it are drawn.
 //
 // strip_charges: their combination per level (relief_strip_bounds()).
@@ -101,10 +102,9 @@ void main()
 		strip_load();
 		uint ei = block_eps_index(pc.layer, bl, blocks);
 		vec4 eps = vec4(rec[ei], rec[ei + 1u], rec[ei + 2u], rec[ei + 3u]);
-		const float inf = uintBitsToFloat(0x7f800000u);
-		float e0 = pc.finest != 0 ? pc.q2 * first_rows_eps_1() : inf;
+		float e0 = pc.finest != 0 ? pc.q2 * first_rows_eps_1() : pc.e0;
 		vec4 charge = strip_charges(eps, e0, pc.q2);
-		vec3 fine = fine_charges(eps, pc.finest != 0 ? pc.q2 * first_rows_eps_2() : inf, pc.q2);
+		vec3 fine = fine_charges(eps, pc.finest != 0 ? pc.q2 * first_rows_eps_2() : pc.e0, pc.q2);
 		rec[base + 0u] = charge.x;
 		rec[base + 1u] = charge.y;
 		rec[base + 2u] = charge.z;

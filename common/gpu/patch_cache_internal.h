@@ -26,8 +26,9 @@ struct job_params {
 	uint32_t mask;
 	float q2, inv_2sx, inv_2sy;
 	int32_t finest; /* 1: the patch is at the file's finest level (strips pass) */
+	float e0;       /* eps_0 above the finest level: the drawn error E0(P), or infinity (strips pass) */
 };
-_Static_assert(sizeof(struct job_params) == 52, "job record");
+_Static_assert(sizeof(struct job_params) == 56, "job record");
 
 struct request {
 	float prio;
