@@ -2,7 +2,6 @@
  * normals, transition strip bounds), the batches' command buffers and the timestamps
  * around the passes (patch_cache_internal.h). */
 #include <errno.h>
-#include <math.h>
 #include <string.h>
 
 #include "patch_cache_internal.h"
@@ -328,9 +327,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
 			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
 			.finest = l + 1 == lay->levels,
-			/* E0(P) is measured from format version 7; before, it is bounded from Err(P)
-			 * where the samples are valid only (relief_draw_error_bound()) */
-			.e0 = c->file->hdr.version >= 7 ? rec.draw_error : INFINITY,
+			.e0 = relief_file_measured_draw_error(c->file, id),
 		};
 	}
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
