@@ -128,9 +128,10 @@ static double worst_against_level(int bx, int by, int edge, const struct tri *t,
 		for (int j = 0; i + j <= DENSE; j++) {
 			double a, d, z;
 			tri_point(t, i, j, &a, &d, &z);
+			/* the cell holding the point; a corner's barycentric sum may round just outside */
 			int cx = (int)floor((a - c0) / so), cy = (int)floor(d / so);
-			cx = cx > 1 ? 1 : cx;
-			cy = cy > 1 ? 1 : cy;
+			cx = cx < 0 ? 0 : cx > 1 ? 1 : cx;
+			cy = cy < 0 ? 0 : cy > 1 ? 1 : cy;
 			const int x0 = c0 + cx * so, y0 = cy * so;
 			double lz0, lz1;
 			cell_planes(bx, by, edge, x0, y0, so, (a - x0) / so, (d - y0) / so, &lz0, &lz1);
