@@ -595,11 +595,9 @@ void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_
 		                                                        f->layout.delta[f->hdr.levels - 1]));
 }
 
-float relief_file_measured_draw_error(const struct relief_file *f, uint32_t id)
+float relief_file_measured_draw_error(const struct relief_file *f, const struct relief_patch_record *r)
 {
-	struct relief_patch_record r;
-	relief_file_record(f, id, &r);
-	return f->hdr.version >= 7 ? r.draw_error : INFINITY;
+	return f->hdr.version >= 7 ? r->draw_error : INFINITY;
 }
 
 int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size)

@@ -155,11 +155,11 @@ void relief_file_close(struct relief_file *f);
 const char *relief_file_name(const struct relief_file *f);
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r);
-/* Patch id's drawn error E0(P) where the file measured it (version 7 on), metres; else
- * +infinity: the bound relief_file_record() gives older files holds only where the
- * patch's samples are valid, which a bound over every block (the transition strips',
- * strip_bound.h) cannot assume. */
-float relief_file_measured_draw_error(const struct relief_file *f, uint32_t id);
+/* The drawn error E0(P) of record r (as relief_file_record() gives it) where the file
+ * measured it (version 7 on), metres; else +infinity: the bound relief_file_record() gives
+ * older files holds only where the patch's samples are valid, which a bound over every
+ * block (the transition strips', strip_bound.h) cannot assume. */
+float relief_file_measured_draw_error(const struct relief_file *f, const struct relief_patch_record *r);
 /* Reads patch id's stream into buf (at least max_stream bytes) and checks its CRC:
  * -EBADMSG on mismatch, -EIO if the file no longer holds it, -ENOENT for an empty patch. */
 int relief_file_read_stream(const struct relief_file *f, uint32_t id, uint8_t *buf, size_t *size);

@@ -175,17 +175,16 @@ static float interior_edge(const struct strip *s, const struct strip_points *sp,
 	return worst;
 }
 
-/* Half the largest twist of the cells in the first `rows` rows along the edge (depth 0 to
- * rows): at the finest level, how far the patch drawn at full resolution with either
- * diagonal lies from the finest surface there, quanta. */
-static float first_rows_eps(const struct strip *s, int rows)
+/* Half the largest twist of the cells in row r along the edge (depth r to r + 1): at the
+ * finest level, how far the patch drawn at full resolution with either diagonal lies from
+ * the finest surface there, quanta. */
+static float row_eps(const struct strip *s, int r)
 {
 	float worst = 0.0f;
-	for (int r = 0; r < rows; r++)
-		for (int k = 0; k < RELIEF_BLOCK_CELLS; k++) {
-			const int32_t twist = h(s, k, r) + h(s, k + 1, r + 1) - h(s, k + 1, r) - h(s, k, r + 1);
-			worst = fmaxf(worst, 0.5f * (float)abs(twist));
-		}
+	for (int k = 0; k < RELIEF_BLOCK_CELLS; k++) {
+		const int32_t twist = h(s, k, r) + h(s, k + 1, r + 1) - h(s, k + 1, r) - h(s, k, r + 1);
+		worst = fmaxf(worst, 0.5f * (float)abs(twist));
+	}
 	return worst;
 }
 
@@ -338,7 +337,7 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			const float *eb = eps + (size_t)b * 4;
 			/* eps_0: at the finest level from the block's own samples (the patch is the
 			 * finest surface), above it the caller's bound for the whole patch */
-			const float e0 = finest ? q2 * first_rows_eps(&s, 1) : e0_patch;
+			const float e0 = finest ? q2 * row_eps(&s, 0) : e0_patch;
 			for (int l = 1; l <= 4; l++) {
 				float charge = 0.0f;
 				for (int i = 0; i < l; i++) {
@@ -350,7 +349,7 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 				r[l - 1] = charge;
 			}
 			/* and over the two rows a fine-edge strip at level 0 spans */
-			const float e0_2 = finest ? q2 * first_rows_eps(&s, 2) : e0_patch;
+			const float e0_2 = finest ? fmaxf(e0, q2 * row_eps(&s, 1)) : e0_patch;
 			for (int l = 0; l <= 2; l++) {
 				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
 				const float el = l == 0 ? e0_2 : eb[l - 1];

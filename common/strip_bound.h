@@ -72,11 +72,11 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
  * quantum, `eps` each block's errors eps_1..eps_4 as the file stores them (blocks^2 x 4
  * floats, relief_file_block_errors()), `finest`: the patch is at the file's finest level,
  * where each block's eps_0 is half the largest twist of the cells a strip spans; above it,
- * eps_0 is e0 for every block, metres: how far the patch drawn at full detail can lie from
+ * eps_0 is e0_patch for every block, metres: how far the patch drawn at full detail can lie from
  * the finest surface (its drawn error E0(P) where the file stores it), INFINITY if unknown.
  * Writes blocks^2 x 4 x RELIEF_STRIP_FLOATS floats to out: blocks in raster order, edges
  * west, north, east, south. No-data samples count with their decoded heights: a strip
  * triangle with a no-data corner still draws wherever its nearest sample is valid.
  * Returns 0, or -ENOMEM. */
-int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps, bool finest, float e0,
+int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps, bool finest, float e0_patch,
                         float *out);

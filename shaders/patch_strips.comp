@@ -64,9 +64,9 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 // cuts on T's sides (relief_strip_interior_points() lists them) or at the samples on the
 // edge segment.
 //
-// first_rows_eps_<rows>: half the largest twist of the cells from depth 0 to rows; at the
-// finest level, how far the full resolution with either diagonal lies from the finest surface
-// where strips against it are drawn.
+// row_eps_<r>: half the largest twist of the cells from depth r to r + 1; at the finest
+// level, how far the full resolution with either diagonal lies from the finest surface there
+// (a strip against it spans row 0, a fine-edge strip at level 0 rows 0 and 1).
 //
 // strip_charges: their combination per level (relief_strip_bounds()).
 //
@@ -102,9 +102,9 @@ void main()
 		strip_load();
 		uint ei = block_eps_index(pc.layer, bl, blocks);
 		vec4 eps = vec4(rec[ei], rec[ei + 1u], rec[ei + 2u], rec[ei + 3u]);
-		float e0 = pc.finest != 0 ? pc.q2 * first_rows_eps_1() : pc.e0;
+		float e0 = pc.finest != 0 ? pc.q2 * row_eps_0() : pc.e0;
 		vec4 charge = strip_charges(eps, e0, pc.q2);
-		vec3 fine = fine_charges(eps, pc.finest != 0 ? pc.q2 * first_rows_eps_2() : pc.e0, pc.q2);
+		vec3 fine = fine_charges(eps, pc.finest != 0 ? max(e0, pc.q2 * row_eps_1()) : pc.e0, pc.q2);
 		rec[base + 0u] = charge.x;
 		rec[base + 1u] = charge.y;
 		rec[base + 2u] = charge.z;

@@ -115,15 +115,14 @@ static void interior_edge(int so, int si)
 	emit("\treturn worst;\n}\n\n");
 }
 
-/* The twin's first_rows_eps(rows), unrolled, as first_rows_eps_<rows>(). */
-static void first_rows_eps(int rows)
+/* The twin's row_eps(r), unrolled, as row_eps_<r>(). */
+static void row_eps(int r)
 {
-	emit("float first_rows_eps_%d()\n{\n\tfloat worst = 0.0;\n", rows);
-	for (int r = 0; r < rows; r++)
-		for (int k = 0; k < N; k++) {
-			emit("\tworst = max(worst, 0.5 * float(abs(%s + %s - ", smp(k, r), smp(k + 1, r + 1));
-			emit("%s - %s)));\n", smp(k + 1, r), smp(k, r + 1));
-		}
+	emit("float row_eps_%d()\n{\n\tfloat worst = 0.0;\n", r);
+	for (int k = 0; k < N; k++) {
+		emit("\tworst = max(worst, 0.5 * float(abs(%s + %s - ", smp(k, r), smp(k + 1, r + 1));
+		emit("%s - %s)));\n", smp(k + 1, r), smp(k, r + 1));
+	}
 	emit("\treturn worst;\n}\n\n");
 }
 
@@ -215,8 +214,8 @@ static void terms(void)
 			coarse_edge(so, si);
 			interior_edge(so, si);
 		}
-	first_rows_eps(1);
-	first_rows_eps(2);
+	row_eps(0);
+	row_eps(1);
 	charges();
 	for (int so = 1; so <= 4; so *= 2) {
 		fine_edge(so);

@@ -327,7 +327,7 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 			.inv_2sx = (float)(1.0 / (2.0 * c->file->hdr.spacing_x * step)),
 			.inv_2sy = (float)(1.0 / (2.0 * c->file->hdr.spacing_y * step)),
 			.finest = l + 1 == lay->levels,
-			.e0 = relief_file_measured_draw_error(c->file, id),
+			.e0 = relief_file_measured_draw_error(c->file, &rec),
 		};
 	}
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);

@@ -172,8 +172,10 @@ static void check_bit_exact(enum test_dem d, uint32_t patch, double tol, uint32_
 				}
 			free(twin);
 			/* The strip bounds (patch_strips.comp) against their CPU twin (strip_bound.c). */
+			struct relief_patch_record rec;
+			relief_file_record(f, id, &rec);
 			assert_int_equal(relief_strip_bounds(cpu, P, (float)q2, cpu_e, l + 1 == lay->levels,
-			                                     relief_file_measured_draw_error(f, id), cpu_strips),
+			                                     relief_file_measured_draw_error(f, &rec), cpu_strips),
 			                 0);
 			for (size_t k = 0; k < nstrip; k++) {
 				const double g = gpu_e[nrec + k], cs = cpu_strips[k];

@@ -443,8 +443,8 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 		relief_file_record(now, id, &b);
 		assert_same_record(old, id, &a, &b);
 		/* the drawn error as measured: only what version 7 stores */
-		assert_true(isinf(relief_file_measured_draw_error(old, id)));
-		assert_true(relief_file_measured_draw_error(now, id) == b.draw_error);
+		assert_true(isinf(relief_file_measured_draw_error(old, &a)));
+		assert_true(relief_file_measured_draw_error(now, &b) == b.draw_error);
 		empty += !!(a.flags & RELIEF_PATCH_EMPTY);
 		relief_file_block_errors(old, id, e0);
 		relief_file_block_errors(now, id, e1);
