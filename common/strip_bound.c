@@ -335,9 +335,12 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			s.edge = e;
 			float *r = out + ((size_t)b * 4 + (size_t)e) * RELIEF_STRIP_FLOATS;
 			const float *eb = eps + (size_t)b * 4;
-			/* eps_0: at the finest level from the block's own samples (the patch is the
-			 * finest surface), above it the caller's bound for the whole patch */
-			const float e0 = finest ? q2 * row_eps(&s, 0) : e0_patch;
+			/* eps_0, for the strips against full resolution: above the finest level the
+			 * caller's bound for the whole patch. At the finest level the patch is the finest
+			 * surface, with some diagonal in each cell: interior_edge() takes every diagonal,
+			 * so it needs none; fine_edge_level() takes one per cell, so it needs half the
+			 * largest twist of the two rows a fine-edge strip at level 0 spans. */
+			const float e0 = finest ? 0.0f : e0_patch;
 			for (int l = 1; l <= 4; l++) {
 				float charge = 0.0f;
 				for (int i = 0; i < l; i++) {
@@ -348,8 +351,7 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 				}
 				r[l - 1] = charge;
 			}
-			/* and over the two rows a fine-edge strip at level 0 spans */
-			const float e0_2 = finest ? fmaxf(e0, q2 * row_eps(&s, 1)) : e0_patch;
+			const float e0_2 = finest ? fmaxf(q2 * row_eps(&s, 0), q2 * row_eps(&s, 1)) : e0_patch;
 			for (int l = 0; l <= 2; l++) {
 				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
 				const float el = l == 0 ? e0_2 : eb[l - 1];

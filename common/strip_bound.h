@@ -71,9 +71,12 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
  * (P + 2)^2 in raster order (sample (x, y) at (y + 1) (P + 2) + x + 1), q2 metres per
  * quantum, `eps` each block's errors eps_1..eps_4 as the file stores them (blocks^2 x 4
  * floats, relief_file_block_errors()), `finest`: the patch is at the file's finest level,
- * where each block's eps_0 is half the largest twist of the cells a strip spans; above it,
- * eps_0 is e0_patch for every block, metres: how far the patch drawn at full detail can lie from
- * the finest surface (its drawn error E0(P) where the file stores it), INFINITY if unknown.
+ * where eps_0 is 0 for the coarse-edge strips (their D against full resolution takes every
+ * diagonal, and the finest surface is one of them) and half the largest twist of the two
+ * rows a fine-edge strip at level 0 spans for those (their D takes one diagonal per cell);
+ * above it, eps_0 is e0_patch for every block, metres: how far the patch drawn at full
+ * detail can lie from the finest surface (its drawn error E0(P) where the file stores it),
+ * INFINITY if unknown.
  * Writes blocks^2 x 4 x RELIEF_STRIP_FLOATS floats to out: blocks in raster order, edges
  * west, north, east, south. No-data samples count with their decoded heights: a strip
  * triangle with a no-data corner still draws wherever its nearest sample is valid.

@@ -66,7 +66,9 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 //
 // row_eps_<r>: half the largest twist of the cells from depth r to r + 1; at the finest
 // level, how far the full resolution with either diagonal lies from the finest surface there
-// (a strip against it spans row 0, a fine-edge strip at level 0 rows 0 and 1).
+// (a fine-edge strip at level 0 spans rows 0 and 1). interior_edge_<so>_1 needs none: it
+// takes every diagonal, so at the finest level it is the distance from the finest surface
+// itself (until the twenty-fourth December session row 0's was added to it).
 //
 // strip_charges: their combination per level (relief_strip_bounds()).
 //
@@ -102,9 +104,12 @@ void main()
 		strip_load();
 		uint ei = block_eps_index(pc.layer, bl, blocks);
 		vec4 eps = vec4(rec[ei], rec[ei + 1u], rec[ei + 2u], rec[ei + 3u]);
-		float e0 = pc.finest != 0 ? pc.q2 * row_eps_0() : pc.e0;
-		vec4 charge = strip_charges(eps, e0, pc.q2);
-		vec3 fine = fine_charges(eps, pc.finest != 0 ? max(e0, pc.q2 * row_eps_1()) : pc.e0, pc.q2);
+		// eps_0 for the strips against full resolution: at the finest level 0 where D is taken
+		// against every diagonal (the finest surface is one of them), half the twist where
+		// it is taken against one (fine_edge_level_1: rows 0 and 1); above it, E0(P).
+		vec4 charge = strip_charges(eps, pc.finest != 0 ? 0.0 : pc.e0, pc.q2);
+		float e0_2 = pc.finest != 0 ? max(pc.q2 * row_eps_0(), pc.q2 * row_eps_1()) : pc.e0;
+		vec3 fine = fine_charges(eps, e0_2, pc.q2);
 		rec[base + 0u] = charge.x;
 		rec[base + 1u] = charge.y;
 		rec[base + 2u] = charge.z;

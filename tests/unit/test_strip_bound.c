@@ -179,7 +179,9 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 			for (int edge = 0; edge < 4; edge++) {
 				const float *r = out + ((size_t)(by * B + bx) * 4 + (size_t)edge) * RELIEF_STRIP_FLOATS;
 				const float *eb = eps + (size_t)(by * B + bx) * 4;
-				const double e0 = finest ? q2 * first_rows_twist(bx, by, edge, 1) : e0_patch;
+				/* at the finest level the dense measure against every diagonal of the full
+				 * resolution is the distance from the finest surface itself */
+				const double e0 = finest ? 0.0 : e0_patch;
 				/* coarse-edge strips: an edge of segments so, rings at si < so */
 				for (int e = 1; e <= 4; e++) {
 					const int so = 1 << e;
@@ -292,11 +294,12 @@ static void test_random_patches_within_bounds(void **state)
 /* One quantum up at sample (4, 1) of a flat patch, q2 = 2 m, eps_1 = 2 m: along block
  * (0, 0)'s north edge a ring vertex at depth 1. For an edge at level 1 (segments of 2,
  * rings at depth 1) the column square's bound is eps_1 + 1 quantum (the bump off its
- * square's plane) = 4 m; the full resolution's (finest level only) is eps_0 = half the
- * twist of the two cells beside the bump, 1 m, plus 2/3 of a quantum: the side from (2, 0)
- * to the bump crosses the diagonal from (4, 0) to (3, 1), flat, two thirds of the way up.
- * So the charge is 4 m, or 1 + 4/3 m at the finest level, and so above it with eps_0 given
- * as 1 m. Without errors, the bounds of the edges that do not reach the bump are 0. */
+ * square's plane) = 4 m; the full resolution's is eps_0 plus 2/3 of a quantum: the side
+ * from (2, 0) to the bump crosses the diagonal from (4, 0) to (3, 1), flat, two thirds of
+ * the way up. At the finest level eps_0 is 0 (the full resolution is the finest surface,
+ * and every diagonal is taken), so the charge is 4/3 m; above it 4 m with eps_0 unknown,
+ * 1 + 4/3 m with eps_0 given as 1 m. Without errors, the bounds of the edges that do not
+ * reach the bump are 0. */
 static void test_bump(void **state)
 {
 	(void)state;
@@ -308,7 +311,7 @@ static void test_bump(void **state)
 	assert_int_equal(relief_strip_bounds(q, P, 2.0f, eps, false, INFINITY, out), 0);
 	assert_true(fabsf(out[1 * RELIEF_STRIP_FLOATS] - 4.0f) < 1e-6f);
 	assert_int_equal(relief_strip_bounds(q, P, 2.0f, eps, true, INFINITY, out), 0);
-	assert_true(fabsf(out[1 * RELIEF_STRIP_FLOATS] - (1.0f + 4.0f / 3.0f)) < 1e-5f);
+	assert_true(fabsf(out[1 * RELIEF_STRIP_FLOATS] - 4.0f / 3.0f) < 1e-5f);
 	assert_int_equal(relief_strip_bounds(q, P, 2.0f, eps, false, 1.0f, out), 0);
 	assert_true(fabsf(out[1 * RELIEF_STRIP_FLOATS] - (1.0f + 4.0f / 3.0f)) < 1e-5f);
 	/* Without errors, the strips' own deviations: none where the bump is out of reach. */
