@@ -119,9 +119,26 @@ int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_poi
 struct strip_points {
 	struct relief_strip_point *p[4][4];
 	int n[4][4];
-	struct relief_strip_fine_point *fine[3];
-	int first[3][RELIEF_BLOCK_CELLS / 2 + 1];
+	struct relief_strip_fine_point *fine[3], *full[3];
+	int first[3][RELIEF_BLOCK_CELLS / 2 + 1], first_full[3][RELIEF_BLOCK_CELLS / 2 + 1];
 };
+
+typedef int (*fine_points_fn)(int so, int c0, struct relief_strip_fine_point *out, int cap);
+
+/* The points `fn` gives for every column of an edge at level e, in column order: column k's
+ * are (*list)[first[k]] up to (*list)[first[k + 1]]. */
+static int fine_points_list(fine_points_fn fn, int e, struct relief_strip_fine_point **list, int *first)
+{
+	const int c = 2 << e, columns = RELIEF_BLOCK_CELLS / c;
+	int n = 0;
+	for (int k = 0; k < columns; k++)
+		n += fn(1 << e, k * c, NULL, 0);
+	if (!(*list = malloc(sizeof(struct relief_strip_fine_point) * (size_t)n)))
+		return -1;
+	for (int k = 0; k < columns; k++)
+		first[k + 1] = first[k] + fn(1 << e, k * c, *list + first[k], n - first[k]);
+	return 0;
+}
 
 static int strip_points_init(struct strip_points *sp)
 {
@@ -138,17 +155,10 @@ static int strip_points_init(struct strip_points *sp)
 				sp->n[e - 1][i] += relief_strip_interior_points(so, si, c0, sp->p[e - 1][i] + sp->n[e - 1][i],
 				                                                n - sp->n[e - 1][i]);
 		}
-	for (int e = 0; e <= 2; e++) {
-		const int c = 2 << e, columns = RELIEF_BLOCK_CELLS / c;
-		int n = 0;
-		for (int k = 0; k < columns; k++)
-			n += relief_strip_fine_points(1 << e, k * c, NULL, 0);
-		if (!(sp->fine[e] = malloc(sizeof(struct relief_strip_fine_point) * (size_t)n)))
+	for (int e = 0; e <= 2; e++)
+		if (fine_points_list(relief_strip_fine_points, e, &sp->fine[e], sp->first[e]) < 0 ||
+		    fine_points_list(relief_strip_full_points, e, &sp->full[e], sp->first_full[e]) < 0)
 			return -1;
-		for (int k = 0; k < columns; k++)
-			sp->first[e][k + 1] = sp->first[e][k] + relief_strip_fine_points(1 << e, k * c, sp->fine[e] + sp->first[e][k],
-			                                                                  n - sp->first[e][k]);
-	}
 	return 0;
 }
 
@@ -158,7 +168,10 @@ static void strip_points_finish(struct strip_points *sp)
 		for (int i = 0; i < 4; i++)
 			free(sp->p[e][i]);
 	for (int e = 0; e <= 2; e++)
+	{
 		free(sp->fine[e]);
+		free(sp->full[e]);
+	}
 }
 
 /* The largest deviation of a coarse-edge strip (segments 2^e) from the triangulation of
@@ -240,9 +253,27 @@ static bool crossing(const int a[2], const int b[2], const int g0[2], const int 
 	return *u > 1e-9 && *u < 1 - 1e-9 && *v > 1e-9 && *v < 1 - 1e-9;
 }
 
-int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
+/* Whether lattice point g lies on the side from a to b, strictly between its ends: its
+ * parameter along it in *u. */
+static bool on_side(const int a[2], const int b[2], const int g[2], double *u)
 {
-	const int c = 2 * so;
+	const long ex = b[0] - a[0], ey = b[1] - a[1], gx = g[0] - a[0], gy = g[1] - a[1];
+	if (ex * gy - ey * gx != 0)
+		return false;
+	*u = (double)(ex * gx + ey * gy) / (double)(ex * ex + ey * ey);
+	return *u > 1e-9 && *u < 1 - 1e-9;
+}
+
+/* The points of the fine-edge column from along c0 (segments of so) against the lattice of
+ * cells of side `cell` over its square (side c = 2 so), with both diagonals of every cell
+ * or none: for the candidate triangles (relief_strip_fine_points()), the lattice's
+ * vertices strictly inside a triangle (T's three corners against the vertex), and along
+ * each distinct side the vertices strictly between its ends and its crossings with the
+ * cells' sides (and diagonals): T there is the side's own interpolation, so a side shared
+ * by two triangles is listed once. */
+static int lattice_points(int so, int cell, bool diagonals, int c0, struct relief_strip_fine_point *out, int cap)
+{
+	const int c = 2 * so, n = c / cell;
 	int first, last;
 	relief_strip_ring(c0, c, c, &first, &last);
 	const bool ha = first == c0 && first <= last, hb = last == c0 + c && first <= last;
@@ -263,52 +294,82 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
 			tris[nt++][2] = v == 0 ? o : v == 1 ? m : cc;
 		}
 	int k = 0;
+	/* inside each triangle: barycentric weights */
 	for (int t = 0; t < nt; t++) {
 		const int *const *p = tris[t];
-		/* the cells' vertices on or in T, its corners left out: barycentric weights */
 		const double det = (double)(p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) -
 		                   (double)(p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-		for (int j = 0; j <= 2; j++)
-			for (int i = 0; i <= 2; i++) {
-				const int g[2] = { c0 + i * so, j * so };
+		for (int j = 0; j <= n; j++)
+			for (int i = 0; i <= n; i++) {
+				const int g[2] = { c0 + i * cell, j * cell };
 				const double l1 = ((double)(g[0] - p[0][0]) * (p[2][1] - p[0][1]) -
 				                   (double)(p[2][0] - p[0][0]) * (g[1] - p[0][1])) / det;
 				const double l2 = ((double)(p[1][0] - p[0][0]) * (g[1] - p[0][1]) -
 				                   (double)(g[0] - p[0][0]) * (p[1][1] - p[0][1])) / det;
 				const double l0 = 1.0 - l1 - l2;
-				if (l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9 || l0 > 1 - 1e-9 || l1 > 1 - 1e-9 || l2 > 1 - 1e-9)
+				if (l0 < 1e-9 || l1 < 1e-9 || l2 < 1e-9)
 					continue;
 				const int pts[4][2] = { { p[0][0], p[0][1] }, { p[1][0], p[1][1] }, { p[2][0], p[2][1] }, { g[0], g[1] } };
 				k = add_fine(out, cap, k, pts, (const double[]){ l0, l1, l2, -1.0 });
 			}
-		/* T's sides across the cells' sides (segments between neighbouring vertices) */
+	}
+	/* along each distinct side */
+	for (int t = 0; t < nt; t++)
 		for (int e = 0; e < 3; e++) {
-			const int *pa = p[e], *pb = p[(e + 1) % 3];
-			for (int j = 0; j <= 2; j++)
-				for (int i = 0; i <= 2; i++)
-					for (int dir = 0; dir < 2; dir++) {
-						const int g0[2] = { c0 + i * so, j * so };
-						const int g1[2] = { g0[0] + (dir == 0 ? so : 0), g0[1] + (dir == 1 ? so : 0) };
-						double u, v;
-						if (g1[0] > c0 + c || g1[1] > c || !crossing(pa, pb, g0, g1, &u, &v))
+			const int *pa = tris[t][e], *pb = tris[t][(e + 1) % 3];
+			bool seen = false;
+			for (int t2 = 0; t2 < t && !seen; t2++)
+				for (int e2 = 0; e2 < 3; e2++) {
+					const int *qa = tris[t2][e2], *qb = tris[t2][(e2 + 1) % 3];
+					seen = seen || (qa == pa && qb == pb) || (qa == pb && qb == pa);
+				}
+			if (seen)
+				continue;
+			for (int j = 0; j <= n; j++)
+				for (int i = 0; i <= n; i++) {
+					const int g0[2] = { c0 + i * cell, j * cell };
+					double u, v;
+					if (on_side(pa, pb, g0, &u)) {
+						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { 0, 0 } };
+						k = add_fine(out, cap, k, pts, (const double[]){ 1 - u, u, -1.0, 0.0 });
+					}
+					/* the cell sides from g0 (east, south), and the diagonals of the cell at g0 */
+					const int ends[4][2][2] = { { { g0[0], g0[1] }, { g0[0] + cell, g0[1] } },
+						                    { { g0[0], g0[1] }, { g0[0], g0[1] + cell } },
+						                    { { g0[0], g0[1] }, { g0[0] + cell, g0[1] + cell } },
+						                    { { g0[0] + cell, g0[1] }, { g0[0], g0[1] + cell } } };
+					for (int l = 0; l < (diagonals ? 4 : 2); l++) {
+						const int *l0 = ends[l][0], *l1 = ends[l][1];
+						if (l1[0] > c0 + c || l1[1] > c || l0[0] > c0 + c || !crossing(pa, pb, l0, l1, &u, &v))
 							continue;
-						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { g1[0], g1[1] } };
+						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { l0[0], l0[1] }, { l1[0], l1[1] } };
 						k = add_fine(out, cap, k, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
 					}
+				}
 		}
-	}
 	return k;
 }
 
-/* The largest deviation of a fine-edge strip along an edge at level e (segments 2^e) from
- * the edge's own level, over the points relief_strip_fine_points() gives, quanta. */
-static float fine_edge_level(const struct strip *s, const struct strip_points *sp, int e)
+int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
+{
+	return lattice_points(so, so, false, c0, out, cap);
+}
+
+int relief_strip_full_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
+{
+	return lattice_points(so, 1, true, c0, out, cap);
+}
+
+/* The largest deviation of a fine-edge strip along an edge at level e (segments 2^e) over
+ * the points of `list` (column k's from first[k]): from the edge's own level
+ * (relief_strip_fine_points()) or from full resolution (relief_strip_full_points()), quanta. */
+static float fine_edge_points(const struct strip *s, const struct relief_strip_fine_point *list, const int *first, int e)
 {
 	float worst = 0.0f;
 	for (int k = 0; k < RELIEF_BLOCK_CELLS / (2 << e); k++) {
 		const int32_t ref = h(s, k * (2 << e), 0);
-		for (int i = sp->first[e][k]; i < sp->first[e][k + 1]; i++) {
-			const struct relief_strip_fine_point *p = &sp->fine[e][i];
+		for (int i = first[k]; i < first[k + 1]; i++) {
+			const struct relief_strip_fine_point *p = &list[i];
 			float d = p->w[0] * (float)(h(s, p->s[0][0], p->s[0][1]) - ref);
 			for (int t = 1; t < p->n; t++)
 				d = d + p->w[t] * (float)(h(s, p->s[t][0], p->s[t][1]) - ref);
@@ -337,9 +398,10 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			const float *eb = eps + (size_t)b * 4;
 			/* eps_0, for the strips against full resolution: above the finest level the
 			 * caller's bound for the whole patch. At the finest level the patch is the finest
-			 * surface, with some diagonal in each cell: interior_edge() takes every diagonal,
-			 * so it needs none; fine_edge_level() takes one per cell, so it needs half the
-			 * largest twist of the two rows a fine-edge strip at level 0 spans. */
+			 * surface, with some diagonal in each cell: interior_edge() and the full
+			 * resolution's points take every diagonal, so they need none; the edge's own
+			 * level takes one per cell, so at level 0 it needs half the largest twist of
+			 * the two rows a fine-edge strip there spans. */
 			const float e0 = finest ? 0.0f : e0_patch;
 			for (int l = 1; l <= 4; l++) {
 				float charge = 0.0f;
@@ -355,8 +417,9 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			for (int l = 0; l <= 2; l++) {
 				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
 				const float el = l == 0 ? e0_2 : eb[l - 1];
-				const float b2 = isinf(el) ? INFINITY : el + q2 * fine_edge_level(&s, &sp, l);
-				r[4 + l] = fminf(b1, b2);
+				const float b2 = isinf(el) ? INFINITY : el + q2 * fine_edge_points(&s, sp.fine[l], sp.first[l], l);
+				const float b3 = isinf(e0) ? INFINITY : e0 + q2 * fine_edge_points(&s, sp.full[l], sp.first_full[l], l);
+				r[4 + l] = fminf(fminf(b1, b2), b3);
 			}
 			r[7] = 0.0f;
 		}

@@ -15,8 +15,9 @@
  *        coarse-edge strip along it against any finer interior: at most this far from the
  *        finest surface (the larger of it and the block's eps_e bounds the edge's level);
  * [4..6] for an edge at level e = 0..2 against an interior one level coarser, the charge
- *        of its fine-edge strips: the smaller of eps_(e+1) + D against the column's square
- *        and eps_e + D_e against the edge's own level (relief_strip_fine_points());
+ *        of its fine-edge strips: the smallest of eps_(e+1) + D against the column's square,
+ *        eps_e + D_e against the edge's own level (relief_strip_fine_points()) and eps_0 +
+ *        D_0 against full resolution with every diagonal (relief_strip_full_points());
  * [7]    0. */
 #define RELIEF_STRIP_FLOATS 8
 
@@ -67,13 +68,20 @@ struct relief_strip_fine_point {
  * `cap` of them to out (may be NULL with cap 0); returns how many there are. */
 int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap);
 
+/* The same triangles against full resolution (cells of 1 sample) with every diagonal: T -
+ * L_0 is linear on each piece of T that the cells' sides and either diagonal cut, for any
+ * choice of diagonals, so |T - L_0| peaks for every choice at the samples inside T, on its
+ * sides, and where its sides cross a cell's side or diagonal (the diagonal's own
+ * interpolation there). A side two triangles share is listed once. */
+int relief_strip_full_points(int so, int c0, struct relief_strip_fine_point *out, int cap);
+
 /* The bounds of every block of a P-sample patch: `q` its quantised heights with the ring,
  * (P + 2)^2 in raster order (sample (x, y) at (y + 1) (P + 2) + x + 1), q2 metres per
  * quantum, `eps` each block's errors eps_1..eps_4 as the file stores them (blocks^2 x 4
  * floats, relief_file_block_errors()), `finest`: the patch is at the file's finest level,
- * where eps_0 is 0 for the coarse-edge strips (their D against full resolution takes every
- * diagonal, and the finest surface is one of them) and half the largest twist of the two
- * rows a fine-edge strip at level 0 spans for those (their D takes one diagonal per cell);
+ * where eps_0 is 0 for the bounds through full resolution that take every diagonal (the
+ * finest surface is one of them) and half the largest twist of the two rows a fine-edge
+ * strip at level 0 spans for its bound through the edge's own level (one diagonal a cell);
  * above it, eps_0 is e0_patch for every block, metres: how far the patch drawn at full
  * detail can lie from the finest surface (its drawn error E0(P) where the file stores it),
  * INFINITY if unknown.

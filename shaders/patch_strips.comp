@@ -107,9 +107,10 @@ void main()
 		// eps_0 for the strips against full resolution: at the finest level 0 where D is taken
 		// against every diagonal (the finest surface is one of them), half the twist where
 		// it is taken against one (fine_edge_level_1: rows 0 and 1); above it, E0(P).
-		vec4 charge = strip_charges(eps, pc.finest != 0 ? 0.0 : pc.e0, pc.q2);
+		float e0 = pc.finest != 0 ? 0.0 : pc.e0;
+		vec4 charge = strip_charges(eps, e0, pc.q2);
 		float e0_2 = pc.finest != 0 ? max(pc.q2 * row_eps_0(), pc.q2 * row_eps_1()) : pc.e0;
-		vec3 fine = fine_charges(eps, e0_2, pc.q2);
+		vec3 fine = fine_charges(eps, e0_2, e0, pc.q2);
 		rec[base + 0u] = charge.x;
 		rec[base + 1u] = charge.y;
 		rec[base + 2u] = charge.z;

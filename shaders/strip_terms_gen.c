@@ -164,14 +164,16 @@ static void fine_edge(int so)
 	emit("\treturn worst;\n}\n\n");
 }
 
-/* The twin's fine_edge_level(so), unrolled: the points of relief_strip_fine_points(). */
-static void fine_edge_level(int so)
+/* The twin's fine_edge_points(so) over the points `fn` lists, unrolled, as <name>_<so>():
+ * fine_edge_level (relief_strip_fine_points()) and fine_edge_full
+ * (relief_strip_full_points()). */
+static void fine_edge_points(const char *name, int (*fn)(int, int, struct relief_strip_fine_point *, int), int so)
 {
-	static struct relief_strip_fine_point pts[256];
-	emit("float fine_edge_level_%d()\n{\n\tfloat worst = 0.0;\n", so);
+	static struct relief_strip_fine_point pts[4096];
+	emit("float %s_%d()\n{\n\tfloat worst = 0.0;\n", name, so);
 	for (int c0 = 0; c0 < N; c0 += 2 * so) {
-		const int np = relief_strip_fine_points(so, c0, pts, 256);
-		if (np > 256) {
+		const int np = fn(so, c0, pts, 4096);
+		if (np > 4096) {
 			fprintf(stderr, "strip terms: %d fine-edge points in a column\n", np);
 			exit(1);
 		}
@@ -189,20 +191,22 @@ static void fine_edge_level(int so)
 }
 
 /* The twin's combination for fine-edge strips in relief_strip_bounds(): the charge of an
- * edge at levels 0..2 from eps_1..eps_4 (eps), eps_0 over the first two rows (e0,
- * infinite where unknown) and the metres per quantum q2. */
+ * edge at levels 0..2 from eps_1..eps_4 (eps), eps_0 over the first two rows for the edge's
+ * own level (e0_2) and for full resolution with every diagonal (e0), both infinite where
+ * unknown, and the metres per quantum q2. */
 static void fine_charges(void)
 {
-	emit("vec3 fine_charges(vec4 eps, float e0, float q2)\n{\n\tvec3 charge;\n"
+	emit("vec3 fine_charges(vec4 eps, float e0_2, float e0, float q2)\n{\n\tvec3 charge;\n"
 	     "\tconst float inf = uintBitsToFloat(0x7f800000u);\n");
 	for (int l = 0; l <= 2; l++) {
 		emit("\t{\n\t\tprecise float b1 = eps[%d] + q2 * fine_edge_%d();\n", l, 1 << l);
 		if (l == 0)
-			emit("\t\tfloat el = e0;\n");
+			emit("\t\tfloat el = e0_2;\n");
 		else
 			emit("\t\tfloat el = eps[%d];\n", l - 1);
 		emit("\t\tprecise float b2 = isinf(el) ? inf : el + q2 * fine_edge_level_%d();\n", 1 << l);
-		emit("\t\tcharge[%d] = min(b1, b2);\n\t}\n", l);
+		emit("\t\tprecise float b3 = isinf(e0) ? inf : e0 + q2 * fine_edge_full_%d();\n", 1 << l);
+		emit("\t\tcharge[%d] = min(min(b1, b2), b3);\n\t}\n", l);
 	}
 	emit("\treturn charge;\n}\n\n");
 }
@@ -219,7 +223,8 @@ static void terms(void)
 	charges();
 	for (int so = 1; so <= 4; so *= 2) {
 		fine_edge(so);
-		fine_edge_level(so);
+		fine_edge_points("fine_edge_level", relief_strip_fine_points, so);
+		fine_edge_points("fine_edge_full", relief_strip_full_points, so);
 	}
 	fine_charges();
 }

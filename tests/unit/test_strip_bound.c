@@ -144,6 +144,26 @@ static double worst_against_level(int bx, int by, int edge, const struct tri *t,
 	return w;
 }
 
+/* The largest |T - L_0| over T, densely sampled, L_0 the full resolution, the worse of
+ * both diagonals at every point. */
+static double worst_against_full(int bx, int by, int edge, const struct tri *t)
+{
+	double worst = 0;
+	for (int i = 0; i <= DENSE; i++)
+		for (int j = 0; i + j <= DENSE; j++) {
+			double a, d, z;
+			tri_point(t, i, j, &a, &d, &z);
+			/* the cell holding the point; a corner's barycentric sum may round just outside */
+			int x0 = (int)floor(a), y0 = (int)floor(d);
+			x0 = x0 < 0 ? 0 : x0 > N - 1 ? N - 1 : x0;
+			y0 = y0 < 0 ? 0 : y0 > N - 1 ? N - 1 : y0;
+			double lz0, lz1;
+			cell_planes(bx, by, edge, x0, y0, 1, a - x0, d - y0, &lz0, &lz1);
+			worst = fmax(worst, fmax(fabs(z - lz0), fabs(z - lz1)));
+		}
+	return worst;
+}
+
 /* Half the largest twist of the first `rows` rows of cells along the edge, quanta. */
 static double first_rows_twist(int bx, int by, int edge, int rows)
 {
@@ -164,10 +184,10 @@ static double first_rows_twist(int bx, int by, int edge, int rows)
  * the largest bounds of each kind) to the stored one: close to 1 when relief_strip_bounds()
  * finds the same maxima (the dense grid may miss a peak slightly). */
 /* What the fine-edge checks saw: the largest ratio as for the coarse-edge charges, and how
- * many edge levels the edge's own level bounded more tightly than the column's square. */
+ * many edge levels the edge's own level, and full resolution, bounded most tightly. */
 struct fine_seen {
 	double ratio;
-	unsigned own_level;
+	unsigned own_level, full;
 };
 
 static double check_candidates(const float *out, double q2, const float *eps, bool finest, double e0_patch,
@@ -217,13 +237,14 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 						ratio = fmax(ratio, charge / stored);
 				}
 				/* fine-edge strips: an edge of segments so, a ring at c = 2 so, against an
-				 * interior at e + 1: each triangle within the smaller of eps_(e+1) + its D
-				 * against the column's square and eps_e + its D against the edge's level */
+				 * interior at e + 1: each triangle within the smallest of eps_(e+1) + its D
+				 * against the column's square, eps_e + its D against the edge's level and
+				 * eps_0 + its D against full resolution (every diagonal) */
 				const double e0_2 = finest ? q2 * first_rows_twist(bx, by, edge, 2) : e0_patch;
 				for (int e = 0; e <= 2; e++) {
 					const int so = 1 << e, c = 2 * so;
 					const double stored = r[4 + e] * (1 + 1e-5) + 1e-6, ee = e == 0 ? e0_2 : eb[e - 1];
-					double worst_q = 0, worst_e = 0;
+					double worst_q = 0, worst_e = 0, worst_f = 0;
 					for (int c0 = 0; c0 < N; c0 += c) {
 						int tris[7][3][2], nt = 0;
 						for (int end = 0; end < 2; end++) {
@@ -245,15 +266,19 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 							fill_tri(bx, by, edge, (const int(*)[2])tris[k], &tt);
 							const double dq = triangle_bound(bx, by, edge, c0, c, (const int(*)[2])tris[k]);
 							const double de = worst_against_level(bx, by, edge, &tt, c0, so);
-							assert_true(fmin(eb[e] + q2 * dq, ee + q2 * de) <= stored);
+							const double df = worst_against_full(bx, by, edge, &tt);
+							assert_true(fmin(fmin(eb[e] + q2 * dq, ee + q2 * de), e0 + q2 * df) <= stored);
 							worst_q = fmax(worst_q, dq);
 							worst_e = fmax(worst_e, de);
+							worst_f = fmax(worst_f, df);
 						}
 					}
-					const double charge = fmin(eb[e] + q2 * worst_q, ee + q2 * worst_e);
+					const double bq = eb[e] + q2 * worst_q, be = ee + q2 * worst_e, bf = e0 + q2 * worst_f;
+					const double charge = fmin(fmin(bq, be), bf);
 					if (charge > 0)
 						fine->ratio = fmax(fine->ratio, charge / stored);
-					fine->own_level += ee + q2 * worst_e < eb[e] + q2 * worst_q;
+					fine->own_level += be < bq && be <= bf;
+					fine->full += bf < fmin(bq, be);
 				}
 			}
 	return ratio;
@@ -283,11 +308,12 @@ static void test_random_patches_within_bounds(void **state)
 	}
 	/* The charge is reached, not only respected: the dense measures come close to it. */
 	print_message("largest charge from the dense measures over the stored one: %.3f coarse-edge, %.3f fine-edge "
-	              "(%u fine-edge charges from the edge's own level)\n",
-	              ratio, fine.ratio, fine.own_level);
+	              "(fine-edge charges from the edge's own level: %u, from full resolution: %u)\n",
+	              ratio, fine.ratio, fine.own_level, fine.full);
 	assert_true(ratio > 0.95);
 	assert_true(fine.ratio > 0.95);
 	assert_true(fine.own_level > 0);
+	assert_true(fine.full > 0);
 	free(out);
 }
 
