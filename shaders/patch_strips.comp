@@ -88,6 +88,13 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 // side (relief_strip_fine_points() lists them). Until the twenty-third December session
 // only the bound through Q was stored, and an interior was raised where it failed though
 // the edge's own level would have held.
+//
+// fine_edge_full_<so>: the same triangles against full resolution L_0 with every choice of
+// diagonals at once: T - L_0 is linear on each piece of T that the cells' sides and the
+// chosen diagonals cut, so it peaks at the samples in or on T or where T's sides cross a
+// cell's side or either diagonal (relief_strip_full_points() lists them). At the finest
+// level L_0 is the finest surface with some diagonals, so eps_0 is 0 there (twenty-fourth
+// December session).
 #include "strip_terms.glsl"
 
 void main()

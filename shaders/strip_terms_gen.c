@@ -8,8 +8,8 @@
  * local and indexing the locals by loop counters needs the loops unrolled, which neither
  * glslang nor lavapipe's compiler does here (a CPU implementation then indexes such an
  * array lane by lane, slower than the loads it saves). So this program unrolls them: it
- * writes one local per sample a bound reads (53 loads an edge) and every term with
- * constant operands (about 1,600 terms an edge, most of them the interior's). The
+ * writes one local per sample a bound reads (106 loads an edge) and every term with
+ * constant operands (about 1,900 terms an edge, most of them the interior's). The
  * expressions are the twin's, term for term, so that the results are bit-exact with it
  * (test_patch_cache compares them).
  *
