@@ -112,33 +112,54 @@ int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_poi
 	return k;
 }
 
+/* The 4-term points of an edge's columns (of `column` samples), in column order: column
+ * k's are p[first[k]] up to p[first[k + 1]]. */
+struct point_list {
+	struct relief_strip_fine_point *p;
+	int first[RELIEF_BLOCK_CELLS + 1];
+};
+
+enum column_kind {
+	COLUMN_FINE_OWN,    /* relief_strip_fine_points() */
+	COLUMN_FINE_FULL,   /* relief_strip_full_points() */
+	COLUMN_COARSE_FULL, /* relief_strip_interior_full_points() */
+};
+
+static int column_points(enum column_kind kind, int so, int si, int c0, struct relief_strip_fine_point *out, int cap)
+{
+	switch (kind) {
+	case COLUMN_FINE_OWN:
+		return relief_strip_fine_points(so, c0, out, cap);
+	case COLUMN_FINE_FULL:
+		return relief_strip_full_points(so, c0, out, cap);
+	default:
+		return relief_strip_interior_full_points(so, si, c0, out, cap);
+	}
+}
+
+static int point_list_init(struct point_list *l, enum column_kind kind, int so, int si, int column)
+{
+	const int columns = RELIEF_BLOCK_CELLS / column;
+	int n = 0;
+	for (int k = 0; k < columns; k++)
+		n += column_points(kind, so, si, k * column, NULL, 0);
+	if (!(l->p = malloc(sizeof(struct relief_strip_fine_point) * (size_t)n)))
+		return -1;
+	l->first[0] = 0;
+	for (int k = 0; k < columns; k++)
+		l->first[k + 1] = l->first[k] + column_points(kind, so, si, k * column, l->p + l->first[k], n - l->first[k]);
+	return 0;
+}
+
 /* The points of every column of every pair of levels (edge e = 1..4, interior i < e),
- * listed once per relief_strip_bounds() call: points[e - 1][i] holds the columns' points
- * in column order. Likewise the fine-edge points of an edge at level e = 0..2: column k's
- * are fine[e][first[e][k]] up to fine[e][first[e][k + 1]]. */
+ * listed once per relief_strip_bounds() call: p[e - 1][i] holds the columns' points in
+ * column order, coarse_full[e - 1][i] (i > 0) those against full resolution; fine[e] and
+ * full[e] the fine-edge points of an edge at level e = 0..2. */
 struct strip_points {
 	struct relief_strip_point *p[4][4];
 	int n[4][4];
-	struct relief_strip_fine_point *fine[3], *full[3];
-	int first[3][RELIEF_BLOCK_CELLS / 2 + 1], first_full[3][RELIEF_BLOCK_CELLS / 2 + 1];
+	struct point_list coarse_full[4][4], fine[3], full[3];
 };
-
-typedef int (*fine_points_fn)(int so, int c0, struct relief_strip_fine_point *out, int cap);
-
-/* The points `fn` gives for every column of an edge at level e, in column order: column k's
- * are (*list)[first[k]] up to (*list)[first[k + 1]]. */
-static int fine_points_list(fine_points_fn fn, int e, struct relief_strip_fine_point **list, int *first)
-{
-	const int c = 2 << e, columns = RELIEF_BLOCK_CELLS / c;
-	int n = 0;
-	for (int k = 0; k < columns; k++)
-		n += fn(1 << e, k * c, NULL, 0);
-	if (!(*list = malloc(sizeof(struct relief_strip_fine_point) * (size_t)n)))
-		return -1;
-	for (int k = 0; k < columns; k++)
-		first[k + 1] = first[k] + fn(1 << e, k * c, *list + first[k], n - first[k]);
-	return 0;
-}
 
 static int strip_points_init(struct strip_points *sp)
 {
@@ -154,10 +175,12 @@ static int strip_points_init(struct strip_points *sp)
 			for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += so)
 				sp->n[e - 1][i] += relief_strip_interior_points(so, si, c0, sp->p[e - 1][i] + sp->n[e - 1][i],
 				                                                n - sp->n[e - 1][i]);
+			if (i > 0 && point_list_init(&sp->coarse_full[e - 1][i], COLUMN_COARSE_FULL, so, si, so) < 0)
+				return -1;
 		}
 	for (int e = 0; e <= 2; e++)
-		if (fine_points_list(relief_strip_fine_points, e, &sp->fine[e], sp->first[e]) < 0 ||
-		    fine_points_list(relief_strip_full_points, e, &sp->full[e], sp->first_full[e]) < 0)
+		if (point_list_init(&sp->fine[e], COLUMN_FINE_OWN, 1 << e, 0, 2 << e) < 0 ||
+		    point_list_init(&sp->full[e], COLUMN_FINE_FULL, 1 << e, 0, 2 << e) < 0)
 			return -1;
 	return 0;
 }
@@ -165,12 +188,13 @@ static int strip_points_init(struct strip_points *sp)
 static void strip_points_finish(struct strip_points *sp)
 {
 	for (int e = 0; e < 4; e++)
-		for (int i = 0; i < 4; i++)
+		for (int i = 0; i < 4; i++) {
 			free(sp->p[e][i]);
-	for (int e = 0; e <= 2; e++)
-	{
-		free(sp->fine[e]);
-		free(sp->full[e]);
+			free(sp->coarse_full[e][i].p);
+		}
+	for (int e = 0; e <= 2; e++) {
+		free(sp->fine[e].p);
+		free(sp->full[e].p);
 	}
 }
 
@@ -264,44 +288,93 @@ static bool on_side(const int a[2], const int b[2], const int g[2], double *u)
 	return *u > 1e-9 && *u < 1 - 1e-9;
 }
 
-/* The points of the fine-edge column from along c0 (segments of so) against the lattice of
- * cells of side `cell` over its square (side c = 2 so), with both diagonals of every cell
- * or none: for the candidate triangles (relief_strip_fine_points()), the lattice's
- * vertices strictly inside a triangle (T's three corners against the vertex), and along
- * each distinct side the vertices strictly between its ends and its crossings with the
- * cells' sides (and diagonals): T there is the side's own interpolation, so a side shared
- * by two triangles is listed once. */
-static int lattice_points(int so, int cell, bool diagonals, int c0, struct relief_strip_fine_point *out, int cap)
+/* The triangles a strip's column can hold: vertices (along, depth) and triangles as
+ * indices into them, within the rectangle from along c0, `width` along and `depth` deep. */
+struct column_tris {
+	int v[RELIEF_BLOCK_CELLS + 3][2];
+	int t[4 * RELIEF_BLOCK_CELLS][3];
+	int nv, nt, c0, width, depth;
+};
+
+static int tris_vertex(struct column_tris *ct, int along, int depth)
 {
-	const int c = 2 * so, n = c / cell;
+	ct->v[ct->nv][0] = along;
+	ct->v[ct->nv][1] = depth;
+	return ct->nv++;
+}
+
+static void tris_add(struct column_tris *ct, int a, int b, int c)
+{
+	ct->t[ct->nt][0] = a;
+	ct->t[ct->nt][1] = b;
+	ct->t[ct->nt++][2] = c;
+}
+
+/* A fine-edge column from along c0 (segments of so, a ring at depth c = 2 so, every c
+ * along, inset by c from the block's ends): an edge segment joined to a ring vertex of
+ * the column, the ring segment joined to any vertex of the edge. */
+static void fine_tris(int so, int c0, struct column_tris *ct)
+{
+	const int c = 2 * so;
+	*ct = (struct column_tris){ .c0 = c0, .width = c, .depth = c };
 	int first, last;
 	relief_strip_ring(c0, c, c, &first, &last);
 	const bool ha = first == c0 && first <= last, hb = last == c0 + c && first <= last;
-	const int o[2] = { c0, 0 }, m[2] = { c0 + so, 0 }, cc[2] = { c0 + c, 0 }, a[2] = { c0, c }, b[2] = { c0 + c, c };
-	const int *tris[7][3];
-	int nt = 0;
+	const int o = tris_vertex(ct, c0, 0), m = tris_vertex(ct, c0 + so, 0), cc = tris_vertex(ct, c0 + c, 0);
+	const int a = tris_vertex(ct, c0, c), b = tris_vertex(ct, c0 + c, c);
 	if (ha) {
-		tris[nt][0] = o, tris[nt][1] = m, tris[nt++][2] = a;
-		tris[nt][0] = m, tris[nt][1] = cc, tris[nt++][2] = a;
+		tris_add(ct, o, m, a);
+		tris_add(ct, m, cc, a);
 	}
 	if (hb) {
-		tris[nt][0] = o, tris[nt][1] = m, tris[nt++][2] = b;
-		tris[nt][0] = m, tris[nt][1] = cc, tris[nt++][2] = b;
+		tris_add(ct, o, m, b);
+		tris_add(ct, m, cc, b);
 	}
 	if (ha && hb)
-		for (int v = 0; v < 3; v++) {
-			tris[nt][0] = a, tris[nt][1] = b;
-			tris[nt++][2] = v == 0 ? o : v == 1 ? m : cc;
+		for (int v = 0; v < 3; v++)
+			tris_add(ct, a, b, v == 0 ? o : v == 1 ? m : cc);
+}
+
+/* A coarse-edge column from along c0 (a segment of so) against an interior of cells of
+ * si < so (a ring at depth si, every si along, inset by si from the block's ends): the
+ * segment joined to a ring vertex, a ring segment joined to an end of the segment. */
+static void coarse_tris(int so, int si, int c0, struct column_tris *ct)
+{
+	const int n = RELIEF_BLOCK_CELLS;
+	*ct = (struct column_tris){ .c0 = c0, .width = so, .depth = si };
+	const int a = tris_vertex(ct, c0, 0), b = tris_vertex(ct, c0 + so, 0);
+	int first, last;
+	relief_strip_ring(c0, so, si, &first, &last);
+	for (int t = first, prev = -1; t <= last; t += si) {
+		const int r = tris_vertex(ct, t, si);
+		tris_add(ct, a, b, r);
+		if (prev >= 0) {
+			tris_add(ct, a, prev, r);
+			tris_add(ct, b, prev, r);
 		}
+		prev = t + si <= last && t + si <= n - si ? r : -1;
+	}
+}
+
+/* The points of the triangles of ct against the lattice of cells of side `cell` over the
+ * column's rectangle, with both diagonals of every cell or none: the lattice's vertices
+ * strictly inside a triangle (its three corners against the vertex), and along each
+ * distinct side the vertices strictly between its ends and its crossings with the cells'
+ * sides (and diagonals): T there is the side's own interpolation, so a side shared by two
+ * triangles is listed once. */
+static int lattice_points(const struct column_tris *ct, int cell, bool diagonals, struct relief_strip_fine_point *out,
+                          int cap)
+{
+	const int na = ct->width / cell, nd = ct->depth / cell, x1 = ct->c0 + ct->width;
 	int k = 0;
 	/* inside each triangle: barycentric weights */
-	for (int t = 0; t < nt; t++) {
-		const int *const *p = tris[t];
+	for (int t = 0; t < ct->nt; t++) {
+		const int *p[3] = { ct->v[ct->t[t][0]], ct->v[ct->t[t][1]], ct->v[ct->t[t][2]] };
 		const double det = (double)(p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) -
 		                   (double)(p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-		for (int j = 0; j <= n; j++)
-			for (int i = 0; i <= n; i++) {
-				const int g[2] = { c0 + i * cell, j * cell };
+		for (int j = 0; j <= nd; j++)
+			for (int i = 0; i <= na; i++) {
+				const int g[2] = { ct->c0 + i * cell, j * cell };
 				const double l1 = ((double)(g[0] - p[0][0]) * (p[2][1] - p[0][1]) -
 				                   (double)(p[2][0] - p[0][0]) * (g[1] - p[0][1])) / det;
 				const double l2 = ((double)(p[1][0] - p[0][0]) * (g[1] - p[0][1]) -
@@ -314,20 +387,21 @@ static int lattice_points(int so, int cell, bool diagonals, int c0, struct relie
 			}
 	}
 	/* along each distinct side */
-	for (int t = 0; t < nt; t++)
+	for (int t = 0; t < ct->nt; t++)
 		for (int e = 0; e < 3; e++) {
-			const int *pa = tris[t][e], *pb = tris[t][(e + 1) % 3];
+			const int ia = ct->t[t][e], ib = ct->t[t][(e + 1) % 3];
 			bool seen = false;
 			for (int t2 = 0; t2 < t && !seen; t2++)
 				for (int e2 = 0; e2 < 3; e2++) {
-					const int *qa = tris[t2][e2], *qb = tris[t2][(e2 + 1) % 3];
-					seen = seen || (qa == pa && qb == pb) || (qa == pb && qb == pa);
+					const int ja = ct->t[t2][e2], jb = ct->t[t2][(e2 + 1) % 3];
+					seen = seen || (ja == ia && jb == ib) || (ja == ib && jb == ia);
 				}
 			if (seen)
 				continue;
-			for (int j = 0; j <= n; j++)
-				for (int i = 0; i <= n; i++) {
-					const int g0[2] = { c0 + i * cell, j * cell };
+			const int *pa = ct->v[ia], *pb = ct->v[ib];
+			for (int j = 0; j <= nd; j++)
+				for (int i = 0; i <= na; i++) {
+					const int g0[2] = { ct->c0 + i * cell, j * cell };
 					double u, v;
 					if (on_side(pa, pb, g0, &u)) {
 						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { 0, 0 } };
@@ -340,7 +414,7 @@ static int lattice_points(int so, int cell, bool diagonals, int c0, struct relie
 						                    { { g0[0] + cell, g0[1] }, { g0[0], g0[1] + cell } } };
 					for (int l = 0; l < (diagonals ? 4 : 2); l++) {
 						const int *l0 = ends[l][0], *l1 = ends[l][1];
-						if (l1[0] > c0 + c || l1[1] > c || l0[0] > c0 + c || !crossing(pa, pb, l0, l1, &u, &v))
+						if (l1[0] > x1 || l1[1] > ct->depth || l0[0] > x1 || !crossing(pa, pb, l0, l1, &u, &v))
 							continue;
 						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { l0[0], l0[1] }, { l1[0], l1[1] } };
 						k = add_fine(out, cap, k, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
@@ -352,24 +426,34 @@ static int lattice_points(int so, int cell, bool diagonals, int c0, struct relie
 
 int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
 {
-	return lattice_points(so, so, false, c0, out, cap);
+	struct column_tris ct;
+	fine_tris(so, c0, &ct);
+	return lattice_points(&ct, so, false, out, cap);
 }
 
 int relief_strip_full_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
 {
-	return lattice_points(so, 1, true, c0, out, cap);
+	struct column_tris ct;
+	fine_tris(so, c0, &ct);
+	return lattice_points(&ct, 1, true, out, cap);
 }
 
-/* The largest deviation of a fine-edge strip along an edge at level e (segments 2^e) over
- * the points of `list` (column k's from first[k]): from the edge's own level
- * (relief_strip_fine_points()) or from full resolution (relief_strip_full_points()), quanta. */
-static float fine_edge_points(const struct strip *s, const struct relief_strip_fine_point *list, const int *first, int e)
+int relief_strip_interior_full_points(int so, int si, int c0, struct relief_strip_fine_point *out, int cap)
+{
+	struct column_tris ct;
+	coarse_tris(so, si, c0, &ct);
+	return lattice_points(&ct, 1, true, out, cap);
+}
+
+/* The largest deviation of a strip over the points of `l` (columns of `column` samples,
+ * each against its first sample for smaller numbers), quanta. */
+static float list_deviation(const struct strip *s, const struct point_list *l, int column)
 {
 	float worst = 0.0f;
-	for (int k = 0; k < RELIEF_BLOCK_CELLS / (2 << e); k++) {
-		const int32_t ref = h(s, k * (2 << e), 0);
-		for (int i = first[k]; i < first[k + 1]; i++) {
-			const struct relief_strip_fine_point *p = &list[i];
+	for (int k = 0; k < RELIEF_BLOCK_CELLS / column; k++) {
+		const int32_t ref = h(s, k * column, 0);
+		for (int i = l->first[k]; i < l->first[k + 1]; i++) {
+			const struct relief_strip_fine_point *p = &l->p[i];
 			float d = p->w[0] * (float)(h(s, p->s[0][0], p->s[0][1]) - ref);
 			for (int t = 1; t < p->n; t++)
 				d = d + p->w[t] * (float)(h(s, p->s[t][0], p->s[t][1]) - ref);
@@ -409,7 +493,10 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 					const float b1 = eb[l - 1] + q2 * coarse_edge(&s, 1 << l, 1 << i);
 					const float ei = i == 0 ? e0 : eb[i - 1];
 					const float b2 = isinf(ei) ? INFINITY : ei + q2 * interior_edge(&s, &sp, l, i);
-					charge = fmaxf(charge, fminf(b1, b2));
+					/* through full resolution with every diagonal (the interior's own at i = 0) */
+					const float b3 = i == 0 || isinf(e0) ? INFINITY
+					                                     : e0 + q2 * list_deviation(&s, &sp.coarse_full[l - 1][i], 1 << l);
+					charge = fmaxf(charge, fminf(fminf(b1, b2), b3));
 				}
 				r[l - 1] = charge;
 			}
@@ -417,8 +504,8 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			for (int l = 0; l <= 2; l++) {
 				const float b1 = eb[l] + q2 * fine_edge(&s, 1 << l);
 				const float el = l == 0 ? e0_2 : eb[l - 1];
-				const float b2 = isinf(el) ? INFINITY : el + q2 * fine_edge_points(&s, sp.fine[l], sp.first[l], l);
-				const float b3 = isinf(e0) ? INFINITY : e0 + q2 * fine_edge_points(&s, sp.full[l], sp.first_full[l], l);
+				const float b2 = isinf(el) ? INFINITY : el + q2 * list_deviation(&s, &sp.fine[l], 2 << l);
+				const float b3 = isinf(e0) ? INFINITY : e0 + q2 * list_deviation(&s, &sp.full[l], 2 << l);
 				r[4 + l] = fminf(fminf(b1, b2), b3);
 			}
 			r[7] = 0.0f;

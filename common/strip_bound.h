@@ -75,6 +75,12 @@ int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out
  * interpolation there). A side two triangles share is listed once. */
 int relief_strip_full_points(int so, int c0, struct relief_strip_fine_point *out, int cap);
 
+/* Likewise for the coarse-edge column from along c0 (a segment of so samples) against an
+ * interior of cells of si < so (relief_strip_interior_points()): its triangles (the
+ * segment joined to a ring vertex, a ring segment joined to an end of the segment) against
+ * full resolution with every diagonal. */
+int relief_strip_interior_full_points(int so, int si, int c0, struct relief_strip_fine_point *out, int cap);
+
 /* The bounds of every block of a P-sample patch: `q` its quantised heights with the ring,
  * (P + 2)^2 in raster order (sample (x, y) at (y + 1) (P + 2) + x + 1), q2 metres per
  * quantum, `eps` each block's errors eps_1..eps_4 as the file stores them (blocks^2 x 4

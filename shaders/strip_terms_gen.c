@@ -9,12 +9,14 @@
  * glslang nor lavapipe's compiler does here (a CPU implementation then indexes such an
  * array lane by lane, slower than the loads it saves). So this program unrolls them: it
  * writes one local per sample a bound reads (106 loads an edge) and every term with
- * constant operands (about 1,900 terms an edge, most of them the interior's). The
+ * constant operands (about 2,900 terms an edge, most of them the coarse-edge strips'). The
  * expressions are the twin's, term for term, so that the results are bit-exact with it
  * (test_patch_cache compares them).
  *
- * The points where a strip may deviate most from a finer interior's triangulation come
- * from relief_strip_interior_points() (common/strip_bound.c), which the twin uses too.
+ * The points where a strip may deviate most from a finer interior's triangulation, the
+ * edge's own level or full resolution come from relief_strip_interior_points(),
+ * relief_strip_fine_points(), relief_strip_full_points() and
+ * relief_strip_interior_full_points() (common/strip_bound.c), which the twin uses too.
  *
  * Usage: relief-strip-terms-gen OUT.glsl. */
 #include <stdarg.h>
@@ -141,7 +143,12 @@ static void charges(void)
 			else
 				emit("\t\tfloat ei = eps[%d];\n", i - 1);
 			emit("\t\tprecise float b2 = isinf(ei) ? inf : ei + q2 * interior_edge_%d_%d();\n", 1 << l, 1 << i);
-			emit("\t\tcharge[%d] = max(charge[%d], min(b1, b2));\n\t}\n", l - 1, l - 1);
+			if (i == 0) {
+				emit("\t\tcharge[%d] = max(charge[%d], min(b1, b2));\n\t}\n", l - 1, l - 1);
+				continue;
+			}
+			emit("\t\tprecise float b3 = isinf(e0) ? inf : e0 + q2 * interior_full_%d_%d();\n", 1 << l, 1 << i);
+			emit("\t\tcharge[%d] = max(charge[%d], min(min(b1, b2), b3));\n\t}\n", l - 1, l - 1);
 		}
 	emit("\treturn charge;\n}\n\n");
 }
@@ -164,17 +171,25 @@ static void fine_edge(int so)
 	emit("\treturn worst;\n}\n\n");
 }
 
-/* The twin's fine_edge_points(so) over the points `fn` lists, unrolled, as <name>_<so>():
- * fine_edge_level (relief_strip_fine_points()) and fine_edge_full
- * (relief_strip_full_points()). */
-static void fine_edge_points(const char *name, int (*fn)(int, int, struct relief_strip_fine_point *, int), int so)
+/* The twin's list_deviation() over the points of one kind of column, unrolled, as
+ * <name>(): fine_edge_level_<so> (relief_strip_fine_points()), fine_edge_full_<so>
+ * (relief_strip_full_points()), interior_full_<so>_<si> (relief_strip_interior_full_points()). */
+enum column_kind { FINE_OWN, FINE_FULL, COARSE_FULL };
+
+static void list_deviation(enum column_kind kind, int so, int si)
 {
 	static struct relief_strip_fine_point pts[4096];
-	emit("float %s_%d()\n{\n\tfloat worst = 0.0;\n", name, so);
-	for (int c0 = 0; c0 < N; c0 += 2 * so) {
-		const int np = fn(so, c0, pts, 4096);
+	const int column = kind == COARSE_FULL ? so : 2 * so;
+	if (kind == COARSE_FULL)
+		emit("float interior_full_%d_%d()\n{\n\tfloat worst = 0.0;\n", so, si);
+	else
+		emit("float fine_edge_%s_%d()\n{\n\tfloat worst = 0.0;\n", kind == FINE_OWN ? "level" : "full", so);
+	for (int c0 = 0; c0 < N; c0 += column) {
+		const int np = kind == FINE_OWN    ? relief_strip_fine_points(so, c0, pts, 4096)
+		               : kind == FINE_FULL ? relief_strip_full_points(so, c0, pts, 4096)
+		                                   : relief_strip_interior_full_points(so, si, c0, pts, 4096);
 		if (np > 4096) {
-			fprintf(stderr, "strip terms: %d fine-edge points in a column\n", np);
+			fprintf(stderr, "strip terms: %d points in a column\n", np);
 			exit(1);
 		}
 		emit("\t{\n\t\tint ref = %s;\n", smp(c0, 0));
@@ -217,14 +232,16 @@ static void terms(void)
 		for (int si = 1; si < so; si *= 2) {
 			coarse_edge(so, si);
 			interior_edge(so, si);
+			if (si > 1)
+				list_deviation(COARSE_FULL, so, si);
 		}
 	row_eps(0);
 	row_eps(1);
 	charges();
 	for (int so = 1; so <= 4; so *= 2) {
 		fine_edge(so);
-		fine_edge_points("fine_edge_level", relief_strip_fine_points, so);
-		fine_edge_points("fine_edge_full", relief_strip_full_points, so);
+		list_deviation(FINE_OWN, so, 0);
+		list_deviation(FINE_FULL, so, 0);
 	}
 	fine_charges();
 }

@@ -175,23 +175,26 @@ static double first_rows_twist(int bx, int by, int edge, int rows)
 	return worst;
 }
 
+/* What the checks saw: the largest ratio for the fine-edge charges (as check_candidates()
+ * returns for the coarse-edge ones), how many fine-edge charges the edge's own level and
+ * full resolution gave (the tightest of the three), and how many coarse-edge level pairs
+ * full resolution bounded most tightly. */
+struct seen {
+	double fine_ratio;
+	unsigned own_level, full, coarse_full;
+};
+
 /* Every candidate triangle of every strip of every block within its bound (metres; q2
  * metres per quantum, eps the blocks' errors as given to relief_strip_bounds()). A
  * coarse-edge strip triangle T against an interior at level i must be within the stored
- * charge of its edge's level e: at most min(eps_e + its D against the square, eps_i + its
- * D against the interior's cells). Returns the largest ratio, over every edge and level,
- * of the charge worked out here from the dense measures (per level pair, the smaller of
- * the largest bounds of each kind) to the stored one: close to 1 when relief_strip_bounds()
- * finds the same maxima (the dense grid may miss a peak slightly). */
-/* What the fine-edge checks saw: the largest ratio as for the coarse-edge charges, and how
- * many edge levels the edge's own level, and full resolution, bounded most tightly. */
-struct fine_seen {
-	double ratio;
-	unsigned own_level, full;
-};
-
+ * charge of its edge's level e: at most the least of eps_e + its D against the square,
+ * eps_i + its D against the interior's cells and eps_0 + its D against full resolution.
+ * Returns the largest ratio, over every edge and level, of the charge worked out here from
+ * the dense measures (per level pair, the least of the largest bounds of each kind) to the
+ * stored one: close to 1 when relief_strip_bounds() finds the same maxima (the dense grid
+ * may miss a peak slightly). */
 static double check_candidates(const float *out, double q2, const float *eps, bool finest, double e0_patch,
-                               struct fine_seen *fine)
+                               struct seen *seen)
 {
 	double ratio = 0;
 	for (int by = 0; by < B; by++)
@@ -210,7 +213,7 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 					for (int i = 0; i < e; i++) {
 						const int si = 1 << i;
 						const double ei = i == 0 ? e0 : eb[i - 1];
-						double worst_c = 0, worst_i = 0;
+						double worst_c = 0, worst_i = 0, worst_f = 0;
 						for (int c0 = 0; c0 < N; c0 += so)
 							for (int t = c0 > si ? c0 : si; t <= c0 + so && t <= N - si; t += si) {
 								int tris[3][3][2] = { { { c0, 0 }, { c0 + so, 0 }, { t, si } } };
@@ -225,13 +228,17 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 									fill_tri(bx, by, edge, (const int(*)[2])tris[k], &tt);
 									const double dc = triangle_bound(bx, by, edge, c0, so, (const int(*)[2])tris[k]);
 									const double di = worst_against_cells(bx, by, edge, &tt, si);
-									const double own = fmin(eb[e - 1] + q2 * dc, ei + q2 * di);
+									const double df = worst_against_full(bx, by, edge, &tt);
+									const double own = fmin(fmin(eb[e - 1] + q2 * dc, ei + q2 * di), e0 + q2 * df);
 									assert_true(own <= stored);
 									worst_c = fmax(worst_c, dc);
 									worst_i = fmax(worst_i, di);
+									worst_f = fmax(worst_f, df);
 								}
 							}
-						charge = fmax(charge, fmin(eb[e - 1] + q2 * worst_c, ei + q2 * worst_i));
+						const double bc = eb[e - 1] + q2 * worst_c, bi = ei + q2 * worst_i, bf = e0 + q2 * worst_f;
+						charge = fmax(charge, fmin(fmin(bc, bi), bf));
+						seen->coarse_full += i > 0 && bf < fmin(bc, bi);
 					}
 					if (charge > 0)
 						ratio = fmax(ratio, charge / stored);
@@ -276,9 +283,9 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 					const double bq = eb[e] + q2 * worst_q, be = ee + q2 * worst_e, bf = e0 + q2 * worst_f;
 					const double charge = fmin(fmin(bq, be), bf);
 					if (charge > 0)
-						fine->ratio = fmax(fine->ratio, charge / stored);
-					fine->own_level += be < bq && be <= bf;
-					fine->full += bf < fmin(bq, be);
+						seen->fine_ratio = fmax(seen->fine_ratio, charge / stored);
+					seen->own_level += be < bq && be <= bf;
+					seen->full += bf < fmin(bq, be);
 				}
 			}
 	return ratio;
@@ -291,7 +298,7 @@ static void test_random_patches_within_bounds(void **state)
 	float eps[B * B * 4];
 	srand(7);
 	double ratio = 0;
-	struct fine_seen fine = { 0 };
+	struct seen seen = { 0 };
 	for (int run = 0; run < 8; run++) {
 		const int amp = run % 2 ? 20 : 2000; /* rough and gentle */
 		for (size_t k = 0; k < sizeof(q) / sizeof(q[0]); k++)
@@ -304,16 +311,18 @@ static void test_random_patches_within_bounds(void **state)
 		const bool finest = run < 4;
 		const float e0 = run < 6 ? INFINITY : (float)(0.25 * amp * (rand() % 100) / 50.0);
 		assert_int_equal(relief_strip_bounds(q, P, 0.25f, eps, finest, e0, out), 0);
-		ratio = fmax(ratio, check_candidates(out, 0.25, eps, finest, e0, &fine));
+		ratio = fmax(ratio, check_candidates(out, 0.25, eps, finest, e0, &seen));
 	}
 	/* The charge is reached, not only respected: the dense measures come close to it. */
 	print_message("largest charge from the dense measures over the stored one: %.3f coarse-edge, %.3f fine-edge "
-	              "(fine-edge charges from the edge's own level: %u, from full resolution: %u)\n",
-	              ratio, fine.ratio, fine.own_level, fine.full);
+	              "(fine-edge charges from the edge's own level: %u, from full resolution: %u; coarse-edge level "
+	              "pairs from full resolution: %u)\n",
+	              ratio, seen.fine_ratio, seen.own_level, seen.full, seen.coarse_full);
 	assert_true(ratio > 0.95);
-	assert_true(fine.ratio > 0.95);
-	assert_true(fine.own_level > 0);
-	assert_true(fine.full > 0);
+	assert_true(seen.fine_ratio > 0.95);
+	assert_true(seen.own_level > 0);
+	assert_true(seen.full > 0);
+	assert_true(seen.coarse_full > 0);
 	free(out);
 }
 
