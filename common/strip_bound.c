@@ -57,77 +57,25 @@ static float coarse_edge(const struct strip *s, int so, int si)
 	return worst;
 }
 
-/* Adds the point on the side from p0 to p1 (along, depth) at s = num / den, where it
- * crosses the line from l0 to l1. */
-static int add_point(struct relief_strip_point *out, int cap, int k, const int p0[2], const int p1[2], int l0a,
-                     int l0d, int l1a, int l1d, int num, int den)
-{
-	if (out && k < cap)
-		out[k] = (struct relief_strip_point){
-			.p0 = { (int8_t)p0[0], (int8_t)p0[1] },
-			.l0 = { (int8_t)l0a, (int8_t)l0d },
-			.p1 = { (int8_t)p1[0], (int8_t)p1[1] },
-			.l1 = { (int8_t)l1a, (int8_t)l1d },
-			.w0 = (float)((double)(den - num) / (double)den),
-			.w1 = (float)((double)num / (double)den),
-		};
-	return k + 1;
-}
-
-int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_point *out, int cap)
-{
-	const int n = RELIEF_BLOCK_CELLS;
-	int k = 0;
-	const int a[2] = { c0, 0 }, b[2] = { c0 + so, 0 };
-	/* The segment against the samples on it: the interior's triangulation follows them. */
-	for (int x = si; x < so; x += si)
-		k = add_point(out, cap, k, a, b, c0 + x, 0, c0 + x, 0, x, so);
-	/* Each side from an end of the segment to a ring vertex r: the point at s (0 < s < 1)
-	 * is at along x0 + s (t - x0), depth s si, and a cell side (vertical) or diagonal meets
-	 * it there with the same s as its own parameter from depth 0 to si; on both, the
-	 * interior's triangulation is linear from its foot to its top. */
-	int first, last;
-	relief_strip_ring(c0, so, si, &first, &last);
-	for (int t = first; t <= last; t += si)
-		for (int end = 0; end < 2; end++) {
-			const int *p0 = end ? b : a, x0 = p0[0], dx = t - x0;
-			const int r[2] = { t, si };
-			if (dx == 0)
-				continue; /* the side is a cell's side: no deviation */
-			for (int m = 0; m <= n; m += si) /* cell sides strictly between the ends */
-				if ((m - x0) * (t - m) > 0)
-					k = add_point(out, cap, k, p0, r, m, 0, m, si, m - x0, dx);
-			for (int c = 0; c + si <= n; c += si) {
-				/* diagonal from (c, 0) to (c + si, si): x0 + s dx - c = s si */
-				int num = c - x0, den = dx - si;
-				if (den != 0 && (double)num / den > 0 && (double)num / den < 1)
-					k = add_point(out, cap, k, p0, r, c, 0, c + si, si, num, den);
-				/* diagonal from (c + si, 0) to (c, si): c + si - (x0 + s dx) = s si */
-				num = c + si - x0;
-				den = dx + si;
-				if (den != 0 && (double)num / den > 0 && (double)num / den < 1)
-					k = add_point(out, cap, k, p0, r, c + si, 0, c, si, num, den);
-			}
-		}
-	return k;
-}
-
 /* The 4-term points of an edge's columns (of `column` samples), in column order: column
  * k's are p[first[k]] up to p[first[k + 1]]. */
 struct point_list {
-	struct relief_strip_fine_point *p;
+	struct relief_strip_point *p;
 	int first[RELIEF_BLOCK_CELLS + 1];
 };
 
 enum column_kind {
+	COLUMN_INTERIOR,    /* relief_strip_interior_points() */
 	COLUMN_FINE_OWN,    /* relief_strip_fine_points() */
 	COLUMN_FINE_FULL,   /* relief_strip_full_points() */
 	COLUMN_COARSE_FULL, /* relief_strip_interior_full_points() */
 };
 
-static int column_points(enum column_kind kind, int so, int si, int c0, struct relief_strip_fine_point *out, int cap)
+static int column_points(enum column_kind kind, int so, int si, int c0, struct relief_strip_point *out, int cap)
 {
 	switch (kind) {
+	case COLUMN_INTERIOR:
+		return relief_strip_interior_points(so, si, c0, out, cap);
 	case COLUMN_FINE_OWN:
 		return relief_strip_fine_points(so, c0, out, cap);
 	case COLUMN_FINE_FULL:
@@ -143,7 +91,7 @@ static int point_list_init(struct point_list *l, enum column_kind kind, int so, 
 	int n = 0;
 	for (int k = 0; k < columns; k++)
 		n += column_points(kind, so, si, k * column, NULL, 0);
-	if (!(l->p = malloc(sizeof(struct relief_strip_fine_point) * (size_t)n)))
+	if (!(l->p = malloc(sizeof(struct relief_strip_point) * (size_t)n)))
 		return -1;
 	l->first[0] = 0;
 	for (int k = 0; k < columns; k++)
@@ -151,14 +99,13 @@ static int point_list_init(struct point_list *l, enum column_kind kind, int so, 
 	return 0;
 }
 
-/* The points of every column of every pair of levels (edge e = 1..4, interior i < e),
- * listed once per relief_strip_bounds() call: p[e - 1][i] holds the columns' points in
- * column order, coarse_full[e - 1][i] (i > 0) those against full resolution; fine[e] and
- * full[e] the fine-edge points of an edge at level e = 0..2. */
+/* The points of every kind of column, listed once per relief_strip_bounds() call: for a
+ * coarse-edge strip along an edge at level e = 1..4 against an interior at i < e,
+ * interior[e - 1][i] and (i > 0) coarse_full[e - 1][i] (against full resolution); for a
+ * fine-edge strip along an edge at level e = 0..2, fine[e] (the edge's own level) and
+ * full[e]. */
 struct strip_points {
-	struct relief_strip_point *p[4][4];
-	int n[4][4];
-	struct point_list coarse_full[4][4], fine[3], full[3];
+	struct point_list interior[4][4], coarse_full[4][4], fine[3], full[3];
 };
 
 static int strip_points_init(struct strip_points *sp)
@@ -167,15 +114,8 @@ static int strip_points_init(struct strip_points *sp)
 	for (int e = 1; e <= 4; e++)
 		for (int i = 0; i < e; i++) {
 			const int so = 1 << e, si = 1 << i;
-			int n = 0;
-			for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += so)
-				n += relief_strip_interior_points(so, si, c0, NULL, 0);
-			if (n > 0 && !(sp->p[e - 1][i] = malloc(sizeof(struct relief_strip_point) * (size_t)n)))
-				return -1;
-			for (int c0 = 0; c0 < RELIEF_BLOCK_CELLS; c0 += so)
-				sp->n[e - 1][i] += relief_strip_interior_points(so, si, c0, sp->p[e - 1][i] + sp->n[e - 1][i],
-				                                                n - sp->n[e - 1][i]);
-			if (i > 0 && point_list_init(&sp->coarse_full[e - 1][i], COLUMN_COARSE_FULL, so, si, so) < 0)
+			if (point_list_init(&sp->interior[e - 1][i], COLUMN_INTERIOR, so, si, so) < 0 ||
+			    (i > 0 && point_list_init(&sp->coarse_full[e - 1][i], COLUMN_COARSE_FULL, so, si, so) < 0))
 				return -1;
 		}
 	for (int e = 0; e <= 2; e++)
@@ -189,27 +129,13 @@ static void strip_points_finish(struct strip_points *sp)
 {
 	for (int e = 0; e < 4; e++)
 		for (int i = 0; i < 4; i++) {
-			free(sp->p[e][i]);
+			free(sp->interior[e][i].p);
 			free(sp->coarse_full[e][i].p);
 		}
 	for (int e = 0; e <= 2; e++) {
 		free(sp->fine[e].p);
 		free(sp->full[e].p);
 	}
-}
-
-/* The largest deviation of a coarse-edge strip (segments 2^e) from the triangulation of
- * an interior of cells 2^i, over the points relief_strip_interior_points() gives. */
-static float interior_edge(const struct strip *s, const struct strip_points *sp, int e, int i)
-{
-	float worst = 0.0f;
-	for (int k = 0; k < sp->n[e - 1][i]; k++) {
-		const struct relief_strip_point *p = &sp->p[e - 1][i][k];
-		const float d = p->w0 * (float)(h(s, p->p0[0], p->p0[1]) - h(s, p->l0[0], p->l0[1])) +
-		                p->w1 * (float)(h(s, p->p1[0], p->p1[1]) - h(s, p->l1[0], p->l1[1]));
-		worst = fmaxf(worst, fabsf(d));
-	}
-	return worst;
 }
 
 /* Half the largest twist of the cells in row r along the edge (depth r to r + 1): at the
@@ -248,12 +174,12 @@ static float fine_edge(const struct strip *s, int so)
  * not cross, T - L_e is linear on each piece of T that the cells' sides cut, and peaks at
  * L_e's vertices on or in T or where T's sides cross a cell's side (the weights of both
  * ends, T's and L_e's). test_strip_bound checks the result against a dense evaluation. */
-static int add_fine(struct relief_strip_fine_point *out, int cap, int k, const int (*pts)[2], const double *w)
+static int add_fine(struct relief_strip_point *out, int cap, int k, const int (*pts)[2], const double *w)
 {
 	if (out && k < cap) {
-		struct relief_strip_fine_point *p = &out[k];
+		struct relief_strip_point *p = &out[k];
 		p->n = 0;
-		for (int i = 0; i < RELIEF_STRIP_FINE_TERMS; i++)
+		for (int i = 0; i < RELIEF_STRIP_POINT_TERMS; i++)
 			if (w[i] != 0.0) {
 				p->s[p->n][0] = (int8_t)pts[i][0];
 				p->s[p->n][1] = (int8_t)pts[i][1];
@@ -362,7 +288,7 @@ static void coarse_tris(int so, int si, int c0, struct column_tris *ct)
  * distinct side the vertices strictly between its ends and its crossings with the cells'
  * sides (and diagonals): T there is the side's own interpolation, so a side shared by two
  * triangles is listed once. */
-static int lattice_points(const struct column_tris *ct, int cell, bool diagonals, struct relief_strip_fine_point *out,
+static int lattice_points(const struct column_tris *ct, int cell, bool diagonals, struct relief_strip_point *out,
                           int cap)
 {
 	const int na = ct->width / cell, nd = ct->depth / cell, x1 = ct->c0 + ct->width;
@@ -424,21 +350,28 @@ static int lattice_points(const struct column_tris *ct, int cell, bool diagonals
 	return k;
 }
 
-int relief_strip_fine_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
+int relief_strip_interior_points(int so, int si, int c0, struct relief_strip_point *out, int cap)
+{
+	struct column_tris ct;
+	coarse_tris(so, si, c0, &ct);
+	return lattice_points(&ct, si, true, out, cap);
+}
+
+int relief_strip_fine_points(int so, int c0, struct relief_strip_point *out, int cap)
 {
 	struct column_tris ct;
 	fine_tris(so, c0, &ct);
 	return lattice_points(&ct, so, false, out, cap);
 }
 
-int relief_strip_full_points(int so, int c0, struct relief_strip_fine_point *out, int cap)
+int relief_strip_full_points(int so, int c0, struct relief_strip_point *out, int cap)
 {
 	struct column_tris ct;
 	fine_tris(so, c0, &ct);
 	return lattice_points(&ct, 1, true, out, cap);
 }
 
-int relief_strip_interior_full_points(int so, int si, int c0, struct relief_strip_fine_point *out, int cap)
+int relief_strip_interior_full_points(int so, int si, int c0, struct relief_strip_point *out, int cap)
 {
 	struct column_tris ct;
 	coarse_tris(so, si, c0, &ct);
@@ -453,7 +386,7 @@ static float list_deviation(const struct strip *s, const struct point_list *l, i
 	for (int k = 0; k < RELIEF_BLOCK_CELLS / column; k++) {
 		const int32_t ref = h(s, k * column, 0);
 		for (int i = l->first[k]; i < l->first[k + 1]; i++) {
-			const struct relief_strip_fine_point *p = &l->p[i];
+			const struct relief_strip_point *p = &l->p[i];
 			float d = p->w[0] * (float)(h(s, p->s[0][0], p->s[0][1]) - ref);
 			for (int t = 1; t < p->n; t++)
 				d = d + p->w[t] * (float)(h(s, p->s[t][0], p->s[t][1]) - ref);
@@ -482,8 +415,8 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 			const float *eb = eps + (size_t)b * 4;
 			/* eps_0, for the strips against full resolution: above the finest level the
 			 * caller's bound for the whole patch. At the finest level the patch is the finest
-			 * surface, with some diagonal in each cell: interior_edge() and the full
-			 * resolution's points take every diagonal, so they need none; the edge's own
+			 * surface, with some diagonal in each cell: the interior's points (at i = 0)
+			 * and full resolution's take every diagonal, so they need none; the edge's own
 			 * level takes one per cell, so at level 0 it needs half the largest twist of
 			 * the two rows a fine-edge strip there spans. */
 			const float e0 = finest ? 0.0f : e0_patch;
@@ -492,7 +425,8 @@ int relief_strip_bounds(const int32_t *q, uint32_t P, float q2, const float *eps
 				for (int i = 0; i < l; i++) {
 					const float b1 = eb[l - 1] + q2 * coarse_edge(&s, 1 << l, 1 << i);
 					const float ei = i == 0 ? e0 : eb[i - 1];
-					const float b2 = isinf(ei) ? INFINITY : ei + q2 * interior_edge(&s, &sp, l, i);
+					const float b2 = isinf(ei) ? INFINITY
+					                           : ei + q2 * list_deviation(&s, &sp.interior[l - 1][i], 1 << l);
 					/* through full resolution with every diagonal (the interior's own at i = 0) */
 					const float b3 = i == 0 || isinf(e0) ? INFINITY
 					                                     : e0 + q2 * list_deviation(&s, &sp.coarse_full[l - 1][i], 1 << l);

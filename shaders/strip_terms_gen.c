@@ -95,28 +95,6 @@ static const char *literal(float v)
 	return b;
 }
 
-/* The twin's interior_edge(so, si), unrolled: the points of relief_strip_interior_points(). */
-static void interior_edge(int so, int si)
-{
-	static struct relief_strip_point pts[4096];
-	emit("float interior_edge_%d_%d()\n{\n\tfloat worst = 0.0;\n", so, si);
-	for (int c0 = 0; c0 < N; c0 += so) {
-		const int np = relief_strip_interior_points(so, si, c0, pts, 4096);
-		if (np > 4096) {
-			fprintf(stderr, "strip terms: %d points in a column\n", np);
-			exit(1);
-		}
-		for (int i = 0; i < np; i++) {
-			const struct relief_strip_point *p = &pts[i];
-			emit("\t{\n\t\tprecise float d = %s * float(%s - ", literal(p->w0), smp(p->p0[0], p->p0[1]));
-			emit("%s) + ", smp(p->l0[0], p->l0[1]));
-			emit("%s * float(%s - ", literal(p->w1), smp(p->p1[0], p->p1[1]));
-			emit("%s);\n\t\tworst = max(worst, abs(d));\n\t}\n", smp(p->l1[0], p->l1[1]));
-		}
-	}
-	emit("\treturn worst;\n}\n\n");
-}
-
 /* The twin's row_eps(r), unrolled, as row_eps_<r>(). */
 static void row_eps(int r)
 {
@@ -172,29 +150,32 @@ static void fine_edge(int so)
 }
 
 /* The twin's list_deviation() over the points of one kind of column, unrolled, as
- * <name>(): fine_edge_level_<so> (relief_strip_fine_points()), fine_edge_full_<so>
- * (relief_strip_full_points()), interior_full_<so>_<si> (relief_strip_interior_full_points()). */
-enum column_kind { FINE_OWN, FINE_FULL, COARSE_FULL };
+ * <name>(): interior_edge_<so>_<si> (relief_strip_interior_points()), interior_full_<so>_<si>
+ * (relief_strip_interior_full_points()), fine_edge_level_<so> (relief_strip_fine_points()),
+ * fine_edge_full_<so> (relief_strip_full_points()). */
+enum column_kind { INTERIOR, COARSE_FULL, FINE_OWN, FINE_FULL };
 
 static void list_deviation(enum column_kind kind, int so, int si)
 {
-	static struct relief_strip_fine_point pts[4096];
-	const int column = kind == COARSE_FULL ? so : 2 * so;
-	if (kind == COARSE_FULL)
-		emit("float interior_full_%d_%d()\n{\n\tfloat worst = 0.0;\n", so, si);
+	static struct relief_strip_point pts[4096];
+	const bool coarse = kind == INTERIOR || kind == COARSE_FULL;
+	const int column = coarse ? so : 2 * so;
+	if (coarse)
+		emit("float interior_%s_%d_%d()\n{\n\tfloat worst = 0.0;\n", kind == INTERIOR ? "edge" : "full", so, si);
 	else
 		emit("float fine_edge_%s_%d()\n{\n\tfloat worst = 0.0;\n", kind == FINE_OWN ? "level" : "full", so);
 	for (int c0 = 0; c0 < N; c0 += column) {
-		const int np = kind == FINE_OWN    ? relief_strip_fine_points(so, c0, pts, 4096)
-		               : kind == FINE_FULL ? relief_strip_full_points(so, c0, pts, 4096)
-		                                   : relief_strip_interior_full_points(so, si, c0, pts, 4096);
+		const int np = kind == INTERIOR      ? relief_strip_interior_points(so, si, c0, pts, 4096)
+		               : kind == COARSE_FULL ? relief_strip_interior_full_points(so, si, c0, pts, 4096)
+		               : kind == FINE_OWN    ? relief_strip_fine_points(so, c0, pts, 4096)
+		                                     : relief_strip_full_points(so, c0, pts, 4096);
 		if (np > 4096) {
 			fprintf(stderr, "strip terms: %d points in a column\n", np);
 			exit(1);
 		}
 		emit("\t{\n\t\tint ref = %s;\n", smp(c0, 0));
 		for (int i = 0; i < np; i++) {
-			const struct relief_strip_fine_point *p = &pts[i];
+			const struct relief_strip_point *p = &pts[i];
 			emit("\t\t{\n\t\t\tprecise float d = ");
 			for (int k = 0; k < p->n; k++)
 				emit("%s%s * float(%s - ref)", k ? " + " : "", literal(p->w[k]), smp(p->s[k][0], p->s[k][1]));
@@ -231,7 +212,7 @@ static void terms(void)
 	for (int so = 2; so <= N; so *= 2)
 		for (int si = 1; si < so; si *= 2) {
 			coarse_edge(so, si);
-			interior_edge(so, si);
+			list_deviation(INTERIOR, so, si);
 			if (si > 1)
 				list_deviation(COARSE_FULL, so, si);
 		}
