@@ -32,7 +32,7 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 	int ret = 0;
 	for (int i = 0; i < n_stages; i++) {
 		if ((ret = relief_vk_shader_module(vk, code[i]->code, code[i]->size, &modules[i])) < 0)
-			goto out;
+			return ret;
 		stages[i] = (VkPipelineShaderStageCreateInfo){
 			.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
 			.stage = stage[i],
@@ -100,13 +100,8 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 		.layout = d->layout,
 		.renderPass = d->pass,
 	};
-	ret = relief_vk_check(vk, vkCreateGraphicsPipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
-	                      "vkCreateGraphicsPipelines");
-out:
-	for (int i = 0; i < n_stages; i++)
-		if (modules[i])
-			vkDestroyShaderModule(vk->device, modules[i], NULL);
-	return ret;
+	return relief_vk_check(vk, vkCreateGraphicsPipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
+	                       "vkCreateGraphicsPipelines");
 }
 
 uint32_t relief_vk_quads_per_draw(uint32_t factor)
@@ -130,10 +125,8 @@ int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout lay
 		           .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main" },
 		.layout = layout,
 	};
-	ret = relief_vk_check(vk, vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
-	                      "vkCreateComputePipelines");
-	vkDestroyShaderModule(vk->device, m, NULL);
-	return ret;
+	return relief_vk_check(vk, vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
+	                       "vkCreateComputePipelines");
 }
 
 int relief_vk_query_pool_create(struct relief_vk *vk, VkQueryPipelineStatisticFlags statistics, uint32_t count,

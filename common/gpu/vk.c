@@ -310,6 +310,7 @@ int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **ou
 		vk->log = *opts->log;
 	atomic_init(&vk->validation_messages, 0);
 	atomic_init(&vk->allocations, 0);
+	pthread_mutex_init(&vk->modules_lock, NULL);
 	vk->validation = env_flag("RELIEF_VALIDATION", opts->validation);
 	vk->gpu_av = vk->validation && env_flag("RELIEF_GPU_AV", false);
 
@@ -341,8 +342,11 @@ void relief_vk_destroy(struct relief_vk *vk)
 		vkDeviceWaitIdle(vk->device);
 		if (vk->cmd_pool)
 			vkDestroyCommandPool(vk->device, vk->cmd_pool, NULL);
+		for (uint32_t i = 0; i < vk->n_modules; i++)
+			vkDestroyShaderModule(vk->device, vk->modules[i].module, NULL);
 		vkDestroyDevice(vk->device, NULL);
 	}
+	pthread_mutex_destroy(&vk->modules_lock);
 	if (vk->messenger) {
 		PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)
 			vkGetInstanceProcAddr(vk->instance, "vkDestroyDebugUtilsMessengerEXT");

@@ -14,6 +14,7 @@
  */
 #pragma once
 
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
@@ -44,6 +45,8 @@ struct relief_vk_options {
 };
 
 #define RELIEF_VK_CAPTURE_FENCES 32
+/* Distinct shader codes a device keeps modules of (relief_vk_shader_module()). */
+#define RELIEF_VK_MAX_MODULES 48
 
 struct relief_vk {
 	VkInstance instance;
@@ -86,6 +89,17 @@ struct relief_vk {
 	VkCommandBuffer capture;
 	VkFence capture_fences[RELIEF_VK_CAPTURE_FENCES];
 	uint32_t capture_n_fences;
+	/* Shader modules made so far, one per code (the embedded SPIR-V, by address), kept for
+	 * the device's life: every pipeline made from that code on this device, by any patch
+	 * cache or terrain, uses the same module. GPU-assisted validation instruments each
+	 * module it sees as a new shader, so a module made per pipeline made lavapipe compile
+	 * the decode passes again for every patch cache (docs/testing.md). Under modules_lock. */
+	struct {
+		const uint32_t *code;
+		VkShaderModule module;
+	} modules[RELIEF_VK_MAX_MODULES];
+	uint32_t n_modules;
+	pthread_mutex_t modules_lock;
 };
 
 int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **out);
@@ -212,6 +226,9 @@ VkDeviceSize relief_vk_image_bytes(struct relief_vk *vk, VkFormat format, uint32
                                    uint32_t layers, VkImageUsageFlags usage);
 void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img);
 
+/* The device's module of `code` (size bytes), made on first use and kept until
+ * relief_vk_destroy(): callers do not destroy it. -ENOSPC past RELIEF_VK_MAX_MODULES codes.
+ * Thread-safe. */
 int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t size,
                             VkShaderModule *out);
 

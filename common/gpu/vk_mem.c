@@ -302,10 +302,29 @@ void relief_vk_image_finish(struct relief_vk *vk, struct relief_vk_image *img)
 
 int relief_vk_shader_module(struct relief_vk *vk, const uint32_t *code, size_t size, VkShaderModule *out)
 {
-	VkShaderModuleCreateInfo info = {
-		.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
-		.codeSize = size,
-		.pCode = code,
-	};
-	return relief_vk_check(vk, vkCreateShaderModule(vk->device, &info, NULL, out), "vkCreateShaderModule");
+	int ret = 0;
+	pthread_mutex_lock(&vk->modules_lock);
+	uint32_t i = 0;
+	while (i < vk->n_modules && vk->modules[i].code != code)
+		i++;
+	if (i == vk->n_modules) {
+		VkShaderModuleCreateInfo info = {
+			.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+			.codeSize = size,
+			.pCode = code,
+		};
+		VkShaderModule m = VK_NULL_HANDLE;
+		if (i == RELIEF_VK_MAX_MODULES)
+			ret = -ENOSPC;
+		else if ((ret = relief_vk_check(vk, vkCreateShaderModule(vk->device, &info, NULL, &m),
+		                                "vkCreateShaderModule")) == 0) {
+			vk->modules[i].code = code;
+			vk->modules[i].module = m;
+			vk->n_modules++;
+		}
+	}
+	if (ret == 0)
+		*out = vk->modules[i].module;
+	pthread_mutex_unlock(&vk->modules_lock);
+	return ret;
 }
