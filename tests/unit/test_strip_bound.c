@@ -81,8 +81,9 @@ static void cell_planes(int bx, int by, int edge, int x0, int y0, int si, double
 	*lz1 = u + v <= 1 ? h00 + u * (h10 - h00) + v * (h01 - h00) : h11 + (1 - u) * (h01 - h11) + (1 - v) * (h10 - h11);
 }
 
-/* The largest |T - L_i| over T, densely sampled, L_i the triangulation of the cells of
- * side si along the edge (depth 0 to si), the worse of both diagonals at every point. */
+/* The largest |T - L| over T, densely sampled, L the triangulation of the cells of side si
+ * (the interior's, or full resolution's at si = 1), the worse of both diagonals at every
+ * point. */
 static double worst_against_cells(int bx, int by, int edge, const struct tri *t, int si)
 {
 	double worst = 0;
@@ -90,10 +91,12 @@ static double worst_against_cells(int bx, int by, int edge, const struct tri *t,
 		for (int j = 0; i + j <= DENSE; j++) {
 			double a, d, z;
 			tri_point(t, i, j, &a, &d, &z);
-			int x0 = (int)floor(a / si) * si;
-			x0 = x0 > N - si ? N - si : x0;
+			/* the cell holding the point; a corner's barycentric sum may round just outside */
+			int x0 = (int)floor(a / si) * si, y0 = (int)floor(d / si) * si;
+			x0 = x0 < 0 ? 0 : x0 > N - si ? N - si : x0;
+			y0 = y0 < 0 ? 0 : y0 > N - si ? N - si : y0;
 			double lz0, lz1;
-			cell_planes(bx, by, edge, x0, 0, si, (a - x0) / si, d / si, &lz0, &lz1);
+			cell_planes(bx, by, edge, x0, y0, si, (a - x0) / si, (d - y0) / si, &lz0, &lz1);
 			worst = fmax(worst, fmax(fabs(z - lz0), fabs(z - lz1)));
 		}
 	return worst;
@@ -142,26 +145,6 @@ static double worst_against_level(int bx, int by, int edge, const struct tri *t,
 	for (int k = 0; k < 4; k++)
 		w = fmax(w, fmin(worst[k / 2][k % 2][0], worst[k / 2][k % 2][1]));
 	return w;
-}
-
-/* The largest |T - L_0| over T, densely sampled, L_0 the full resolution, the worse of
- * both diagonals at every point. */
-static double worst_against_full(int bx, int by, int edge, const struct tri *t)
-{
-	double worst = 0;
-	for (int i = 0; i <= DENSE; i++)
-		for (int j = 0; i + j <= DENSE; j++) {
-			double a, d, z;
-			tri_point(t, i, j, &a, &d, &z);
-			/* the cell holding the point; a corner's barycentric sum may round just outside */
-			int x0 = (int)floor(a), y0 = (int)floor(d);
-			x0 = x0 < 0 ? 0 : x0 > N - 1 ? N - 1 : x0;
-			y0 = y0 < 0 ? 0 : y0 > N - 1 ? N - 1 : y0;
-			double lz0, lz1;
-			cell_planes(bx, by, edge, x0, y0, 1, a - x0, d - y0, &lz0, &lz1);
-			worst = fmax(worst, fmax(fabs(z - lz0), fabs(z - lz1)));
-		}
-	return worst;
 }
 
 /* Half the largest twist of the first `rows` rows of cells along the edge, quanta. */
@@ -228,7 +211,7 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 									fill_tri(bx, by, edge, (const int(*)[2])tris[k], &tt);
 									const double dc = triangle_bound(bx, by, edge, c0, so, (const int(*)[2])tris[k]);
 									const double di = worst_against_cells(bx, by, edge, &tt, si);
-									const double df = worst_against_full(bx, by, edge, &tt);
+									const double df = si == 1 ? di : worst_against_cells(bx, by, edge, &tt, 1);
 									const double own = fmin(fmin(eb[e - 1] + q2 * dc, ei + q2 * di), e0 + q2 * df);
 									assert_true(own <= stored);
 									worst_c = fmax(worst_c, dc);
@@ -273,7 +256,7 @@ static double check_candidates(const float *out, double q2, const float *eps, bo
 							fill_tri(bx, by, edge, (const int(*)[2])tris[k], &tt);
 							const double dq = triangle_bound(bx, by, edge, c0, c, (const int(*)[2])tris[k]);
 							const double de = worst_against_level(bx, by, edge, &tt, c0, so);
-							const double df = worst_against_full(bx, by, edge, &tt);
+							const double df = worst_against_cells(bx, by, edge, &tt, 1);
 							assert_true(fmin(fmin(eb[e] + q2 * dq, ee + q2 * de), e0 + q2 * df) <= stored);
 							worst_q = fmax(worst_q, dq);
 							worst_e = fmax(worst_e, de);
