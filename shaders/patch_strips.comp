@@ -67,7 +67,7 @@ int sample_height(int along, int depth) { return imageLoad(heights, ivec3(at(alo
 // interior_full_<so>_<si> (si > 1): the same strips against full resolution L_0 with every
 // choice of diagonals at once (as fine_edge_full below: relief_strip_interior_full_points()
 // lists the points), a third bound with eps_0 (0 at the finest level, E0(P) above it); at
-// si = 1 interior_edge is that bound already. Since the twenty-fourth December session.
+// si = 1 interior_edge_<so>_1 is that bound already. Since the twenty-fourth December session.
 //
 // row_eps_<r>: half the largest twist of the cells from depth r to r + 1; at the finest
 // level, how far the full resolution with either diagonal lies from the finest surface there
