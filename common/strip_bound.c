@@ -169,12 +169,11 @@ static float fine_edge(const struct strip *s, int so)
 	return worst;
 }
 
-/* Fine-edge strips against the edge's own level L_e (cells of so): a candidate triangle T
- * has its corners on L_e's vertices, so with the diagonal in each cell that T's sides do
- * not cross, T - L_e is linear on each piece of T that the cells' sides cut, and peaks at
- * L_e's vertices on or in T or where T's sides cross a cell's side (the weights of both
- * ends, T's and L_e's). test_strip_bound checks the result against a dense evaluation. */
-static int add_fine(struct relief_strip_point *out, int cap, int k, const int (*pts)[2], const double *w)
+/* Writes point k (its samples pts with weights w, the terms of weight 0 left out) when it
+ * fits in out; returns k + 1, so that a call with out NULL counts the points. Why the
+ * points listed are where T - L peaks: strip_bound.h, at each list's function;
+ * test_strip_bound checks the lists against a dense evaluation. */
+static int add_point(struct relief_strip_point *out, int cap, int k, const int (*pts)[2], const double *w)
 {
 	if (out && k < cap) {
 		struct relief_strip_point *p = &out[k];
@@ -309,7 +308,7 @@ static int lattice_points(const struct column_tris *ct, int cell, bool diagonals
 				if (l0 < 1e-9 || l1 < 1e-9 || l2 < 1e-9)
 					continue;
 				const int pts[4][2] = { { p[0][0], p[0][1] }, { p[1][0], p[1][1] }, { p[2][0], p[2][1] }, { g[0], g[1] } };
-				k = add_fine(out, cap, k, pts, (const double[]){ l0, l1, l2, -1.0 });
+				k = add_point(out, cap, k, pts, (const double[]){ l0, l1, l2, -1.0 });
 			}
 	}
 	/* along each distinct side */
@@ -331,7 +330,7 @@ static int lattice_points(const struct column_tris *ct, int cell, bool diagonals
 					double u, v;
 					if (on_side(pa, pb, g0, &u)) {
 						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { g0[0], g0[1] }, { 0, 0 } };
-						k = add_fine(out, cap, k, pts, (const double[]){ 1 - u, u, -1.0, 0.0 });
+						k = add_point(out, cap, k, pts, (const double[]){ 1 - u, u, -1.0, 0.0 });
 					}
 					/* the cell sides from g0 (east, south), and the diagonals of the cell at g0 */
 					const int ends[4][2][2] = { { { g0[0], g0[1] }, { g0[0] + cell, g0[1] } },
@@ -343,7 +342,7 @@ static int lattice_points(const struct column_tris *ct, int cell, bool diagonals
 						if (l1[0] > x1 || l1[1] > ct->depth || l0[0] > x1 || !crossing(pa, pb, l0, l1, &u, &v))
 							continue;
 						const int pts[4][2] = { { pa[0], pa[1] }, { pb[0], pb[1] }, { l0[0], l0[1] }, { l1[0], l1[1] } };
-						k = add_fine(out, cap, k, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
+						k = add_point(out, cap, k, pts, (const double[]){ 1 - u, u, -(1 - v), -v });
 					}
 				}
 		}
