@@ -61,7 +61,12 @@
  * a distant ridge, and a small change of the LOD moves it a lot (docs/benchmarks.md). So it
  * also counts those events: popping_events of popping_pairs pairs changed some pixel's
  * error by more than POP_EVENT_PX, popping_event_pixels pixels in all, popping_pixel_max_px
- * the largest change of one pixel.
+ * the largest change of one pixel. Where the device captures meshes, each event's two
+ * frames' quads are compared place by place (mesh_diff.h): popping_event_interiors,
+ * popping_event_edges and popping_event_coarse count, over the events, the quads whose inner
+ * factor changed, those whose outer factors alone did, and the places only one frame draws
+ * (the coarse selection or the block culling changed there); --trace-events lists them
+ * per event on stderr.
  * shade_popping is the same comparison on the picture itself: the RMS over pixels showing
  * terrain in both of the colour difference (RGB distance / sqrt 3, in 8-bit steps)
  * between the two renders, averaged over the pairs; what a viewer sees change, lighting
@@ -88,6 +93,7 @@
 #include "decode.h"
 #include "format.h"
 #include "lod.h"
+#include "mesh_diff.h"
 #include "patch_cache.h"
 #include "renderer.h"
 #include "terrain.h"
@@ -111,6 +117,10 @@ struct result {
 	uint32_t pop_events;
 	uint64_t pop_event_pixels;
 	double pop_pixel_max;
+	/* In those events' pairs, the quads whose factors or presence the change of LOD alone
+	 * changed (mesh_diff.h); pop_quads_measured false where not measured (no capture). */
+	struct mesh_quad_changes pop_quads;
+	bool pop_quads_measured;
 	double shade_popping;               /* colour change of the LOD change alone, 8-bit steps */
 	double shade_err;                   /* colour difference from the full-resolution render */
 	double max_err_3x, recheck_diff;    /* rechecked maximum (top of the file), -1 if not rechecked */
@@ -146,6 +156,7 @@ struct run {
 	/* three times the frame's width and height, for rechecks; recheck_all: every pixel */
 	struct relief_vk_target fine;
 	bool recheck_all;
+	bool trace_events; /* each popping event's changed quads to stderr */
 	/* |error| in px per frame and pixel of the reference render (NaN: no terrain), or NULL
 	 * while the reference itself is measured */
 	float *ref_err;
@@ -339,6 +350,16 @@ static double colour_change(const uint8_t *a, const uint8_t *b, const float *da,
 	return count ? sqrt(sum / count) : -1;
 }
 
+/* The quads of the view's last frame drawn with relief_draw_options.mesh into qs (emptied
+ * first); false when they were not captured (a frame over MESH_CAP triangles). */
+static int capture_quads(struct run *r, struct relief_terrain_view *tv, struct mesh_quads *qs, bool *ok)
+{
+	mesh_quads_finish(qs);
+	int64_t n = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
+	*ok = n >= 0 && n <= MESH_CAP;
+	return n < 0 ? (int)n : *ok ? mesh_quads_init(qs, r->mesh_quads, (uint64_t)n) : 0;
+}
+
 /* Renders the flight once with configuration c; GPU and selection times of its frames go
  * to ms[], sel[] and lod[] (2 x frames each). With `analyse`, also the errors and popping. */
 static int measure(struct run *r, const struct config *c, bool analyse, double *ms, double *sel, double *lod,
@@ -367,6 +388,13 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		mesh_unmeasured(res);
 	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
 	uint32_t shade_frames = 0;
+	/* With a mesh capture, the frozen frame's quads, compared with the own frame's in each
+	 * popping event (the frozen frame is drawn through the capture's pipelines, which draw
+	 * the same picture). */
+	struct mesh_quads frozen_quads = { 0 }, own_quads = { 0 };
+	bool frozen_captured = false;
+	if (analyse)
+		res->pop_quads_measured = r->mesh != NULL;
 	uint32_t pairs = 0;
 	for (uint32_t i = 0; i < n && ret == 0; i++) {
 		struct relief_view view = r->views[i], *v = &view;
@@ -387,7 +415,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			before.loose_transitions = view.loose_transitions;
 			struct relief_draw_options o = c->opts;
 			o.lod_view = &before;
-			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0)
+			o.mesh = r->mesh != NULL;
+			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0 ||
+			    (r->mesh && (ret = capture_quads(r, tv, &frozen_quads, &frozen_captured)) < 0))
 				break;
 			frame_errors(r, c, v, i, frozen, NULL, NULL);
 			memcpy(frozen_depth, r->gpu.target.depth_readback.map, sizeof(float) * W * H);
@@ -419,9 +449,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 				shade_frames++;
 			}
 		}
+		uint64_t moved = 0; /* this frame's popping event: pixels changed, the largest change */
+		double most = 0;
 		if (i % 2 == 1) { /* the frame after a key pose: popping */
-			uint64_t moved;
-			double most;
 			double d = error_change(frozen, err, (size_t)W * H, &moved, &most);
 			double dc = error_change(prev, err, (size_t)W * H, NULL, NULL);
 			double ds = colour_change(frozen_rgba, r->gpu.target.color_readback.map, frozen_depth,
@@ -434,11 +464,24 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 				res->pop_events += moved > 0;
 				res->pop_event_pixels += moved;
 				res->pop_pixel_max = fmax(res->pop_pixel_max, most);
+			} else {
+				moved = 0;
 			}
 		}
 		/* Last: it draws the frame again into the target the statistics above read. */
 		if (r->mesh && (ret = mesh_measure(r, c, tv, v, i, res)) < 0)
 			break;
+		if (r->mesh && moved > 0) { /* an event: which quads changed (mesh_measure() captured them) */
+			bool own_captured;
+			if ((ret = capture_quads(r, tv, &own_quads, &own_captured)) < 0)
+				break;
+			res->pop_quads_measured &= frozen_captured && own_captured;
+			if (r->trace_events)
+				fprintf(stderr, "popping event: %s %g, pair %u, %llu pixels, largest %.3f px; changed quads:\n",
+				        c->method, c->param, i / 2, (unsigned long long)moved, most);
+			if (frozen_captured && own_captured)
+				mesh_quads_compare(&frozen_quads, &own_quads, r->trace_events ? stderr : NULL, &res->pop_quads);
+		}
 		float *t = prev;
 		prev = err;
 		err = t;
@@ -470,6 +513,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			res->popping_max = fmax(res->popping_max, pops[k]);
 		res->popping_median = pairs ? bench_median(pops, pairs) : 0;
 	}
+	mesh_quads_finish(&frozen_quads);
+	mesh_quads_finish(&own_quads);
 	relief_terrain_view_destroy(tv);
 	free(a.hist);
 	free(a.over);
@@ -519,10 +564,11 @@ int bench_lod(int argc, char **argv)
 		{ "targets", required_argument, NULL, 'P' }, { "device", required_argument, NULL, 'd' },
 		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
 		{ "morphed", no_argument, NULL, 'M' }, { "recheck-all", no_argument, NULL, 'A' },
-		{ "loose", no_argument, NULL, 'L' },  { "help", no_argument, NULL, 'h' },
+		{ "loose", no_argument, NULL, 'L' },  { "trace-events", no_argument, NULL, 'E' },
+		{ "help", no_argument, NULL, 'h' },
 		{ 0 },
 	};
-	bool json = false, unculled = false, morphed = false, recheck_all = false, loose = false;
+	bool json = false, unculled = false, morphed = false, recheck_all = false, loose = false, trace = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	uint32_t ntau = 5, ntarget = 5;
@@ -555,10 +601,11 @@ int bench_lod(int argc, char **argv)
 		case 'M': morphed = true; break;
 		case 'L': loose = true; break;
 		case 'A': recheck_all = true; break;
+		case 'E': trace = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
 			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--morphed]\n"
-			       "                        [--loose] [--recheck-all] [--device DEV]\n"
+			       "                        [--loose] [--recheck-all] [--trace-events] [--device DEV]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -579,7 +626,10 @@ int bench_lod(int argc, char **argv)
 			       "--recheck-all rechecks every pixel (a check of the recheck, slow).\n"
 			       "mesh_max: every triangle of every frame captured and measured whole against the\n"
 			       "finest surface, between pixel centres and behind other triangles too (the JSON also\n"
-			       "splits it into the tessellator's transition triangles and the regular ones).\n");
+			       "splits it into the tessellator's transition triangles and the regular ones).\n"
+			       "Popping events (pairs in which some pixel's error changes by over 0.01 px): the\n"
+			       "JSON counts the quads whose factors the change of LOD alone changed in them;\n"
+			       "--trace-events lists each event's quads on stderr.\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -595,7 +645,7 @@ int bench_lod(int argc, char **argv)
 		fprintf(stderr, "relief bench lod: %s: %s\n", path, err);
 		return 1;
 	}
-	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all };
+	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all, .trace_events = trace };
 	float *finest = NULL;
 	int status = 1, ret;
 	struct relief_vk_options vo = { .device = device, .log = &cli_log, .mesh_capture = true };
@@ -727,6 +777,10 @@ int bench_lod(int argc, char **argv)
 				       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",
 				       res[i].max_err_3x, (unsigned long long)res[i].over_tau,
 				       (unsigned long long)res[i].unresolved, res[i].recheck_diff, res[i].recheck_rms);
+			if (res[i].pop_quads_measured)
+				printf(",\"popping_event_interiors\":%llu,\"popping_event_edges\":%llu,\"popping_event_coarse\":%llu",
+				       (unsigned long long)res[i].pop_quads.interiors, (unsigned long long)res[i].pop_quads.edges,
+				       (unsigned long long)res[i].pop_quads.coarse);
 			if (res[i].mesh_max >= 0)
 				printf(",\"max_err_mesh_px\":%.4f,\"max_err_mesh_transition_px\":%.4f,"
 				       "\"max_err_mesh_regular_worse_px\":%.4f,\"transition_triangles\":%.1f",
