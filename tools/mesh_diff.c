@@ -38,12 +38,16 @@ int mesh_quads_init(struct mesh_quads *qs, const struct relief_mesh_quad *tri_qu
 		return 0;
 	if (!(qs->q = malloc(sizeof(*qs->q) * n)))
 		return -ENOMEM;
-	memcpy(qs->q, tri_quads, sizeof(*qs->q) * n);
-	/* Sorted and made unique by their fields (quad_cmp()): a record's padding is not part
-	 * of its quad. */
-	qsort(qs->q, n, sizeof(*qs->q), quad_cmp);
+	/* A quad's triangles mostly come one after another: copies of the record before are
+	 * left out first, so that the sort sees about one record a quad, not one a triangle.
+	 * Compared by their fields (quad_cmp()): a record's padding is not part of its quad. */
+	uint64_t m = 0;
+	for (uint64_t k = 0; k < n; k++)
+		if (m == 0 || quad_cmp(&qs->q[m - 1], &tri_quads[k]) != 0)
+			qs->q[m++] = tri_quads[k];
+	qsort(qs->q, m, sizeof(*qs->q), quad_cmp);
 	uint64_t u = 1;
-	for (uint64_t k = 1; k < n; k++)
+	for (uint64_t k = 1; k < m; k++)
 		if (quad_cmp(&qs->q[u - 1], &qs->q[k]) != 0)
 			qs->q[u++] = qs->q[k];
 	qs->n = u;
