@@ -91,7 +91,10 @@ void mesh_quads_compare(const struct mesh_quads *a, const struct mesh_quads *b, 
 			out->coarse++;
 			if (trace)
 				trace_place(trace, c < 0 ? &a->q[i] : NULL, c < 0 ? NULL : &b->q[j]);
-			c < 0 ? i++ : j++;
+			if (c < 0)
+				i++;
+			else
+				j++;
 			continue;
 		}
 		if (factors_cmp(&a->q[i], &b->q[j]) != 0) {

@@ -18,7 +18,8 @@ struct mesh_quads {
  * - interiors: a place both draw, at another inner factor (the outer ones may differ too);
  * - edges: a place both draw, the inner factor the same and some outer factor not;
  * - coarse: a place only one draws (the coarse selection differs there: a patch split or
- *   merged, or a curtain quad that comes or goes), counted in either mesh. */
+ *   merged, or a curtain quad that comes or goes; or the block is culled in one mesh
+ *   only), counted in either mesh. */
 struct mesh_quad_changes {
 	uint64_t interiors, edges, coarse;
 };
