@@ -278,9 +278,9 @@ static void mesh_unmeasured(struct result *res)
 /* Frame i of the analysed run drawn again (untimed; selecting again for the same camera
  * keeps the LOD, as for recheck()) with its triangles captured and measured whole
  * (relief_mesh_error()): the maxima go to res, which starts at 0 (-1 once a frame did not
- * fit the capture). */
+ * fit the capture). *captured: the triangles the capture holds (r->mesh, r->mesh_quads). */
 static int mesh_measure(struct run *r, const struct config *c, struct relief_terrain_view *tv,
-                        const struct relief_view *v, uint32_t i, struct result *res)
+                        const struct relief_view *v, uint32_t i, struct result *res, int64_t *captured)
 {
 	struct relief_draw_options o = c->opts;
 	o.mesh = true;
@@ -291,6 +291,7 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 	int64_t n = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
 	if (n < 0)
 		return (int)n;
+	*captured = n;
 	if (n > MESH_CAP || res->mesh_max < 0) {
 		mesh_unmeasured(res);
 		return 0;
@@ -350,14 +351,13 @@ static double colour_change(const uint8_t *a, const uint8_t *b, const float *da,
 	return count ? sqrt(sum / count) : -1;
 }
 
-/* The quads of the view's last frame drawn with relief_draw_options.mesh into qs (emptied
- * first); false when they were not captured (a frame over MESH_CAP triangles). */
-static int capture_quads(struct run *r, struct relief_terrain_view *tv, struct mesh_quads *qs, bool *ok)
+/* The quads of the n triangles a capture drew (r->mesh_quads) into qs, emptied first; *ok
+ * false when they were not all kept (a frame over MESH_CAP triangles). */
+static int capture_quads(struct run *r, int64_t n, struct mesh_quads *qs, bool *ok)
 {
 	mesh_quads_finish(qs);
-	int64_t n = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
-	*ok = n >= 0 && n <= MESH_CAP;
-	return n < 0 ? (int)n : *ok ? mesh_quads_init(qs, r->mesh_quads, (uint64_t)n) : 0;
+	*ok = n <= MESH_CAP;
+	return *ok ? mesh_quads_init(qs, r->mesh_quads, (uint64_t)n) : 0;
 }
 
 /* Renders the flight once with configuration c; GPU and selection times of its frames go
@@ -416,9 +416,13 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			struct relief_draw_options o = c->opts;
 			o.lod_view = &before;
 			o.mesh = r->mesh != NULL;
-			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0 ||
-			    (r->mesh && (ret = capture_quads(r, tv, &frozen_quads, &frozen_captured)) < 0))
+			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0)
 				break;
+			if (r->mesh) {
+				int64_t n_frozen = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
+				if ((ret = n_frozen < 0 ? (int)n_frozen : capture_quads(r, n_frozen, &frozen_quads, &frozen_captured)) < 0)
+					break;
+			}
 			frame_errors(r, c, v, i, frozen, NULL, NULL);
 			memcpy(frozen_depth, r->gpu.target.depth_readback.map, sizeof(float) * W * H);
 			memcpy(frozen_rgba, r->gpu.target.color_readback.map, (size_t)4 * W * H);
@@ -469,11 +473,12 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			}
 		}
 		/* Last: it draws the frame again into the target the statistics above read. */
-		if (r->mesh && (ret = mesh_measure(r, c, tv, v, i, res)) < 0)
+		int64_t captured = 0;
+		if (r->mesh && (ret = mesh_measure(r, c, tv, v, i, res, &captured)) < 0)
 			break;
 		if (r->mesh && moved > 0) { /* an event: which quads changed (mesh_measure() captured them) */
 			bool own_captured;
-			if ((ret = capture_quads(r, tv, &own_quads, &own_captured)) < 0)
+			if ((ret = capture_quads(r, captured, &own_quads, &own_captured)) < 0)
 				break;
 			res->pop_quads_measured &= frozen_captured && own_captured;
 			if (r->trace_events)
