@@ -27,16 +27,16 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 		VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT, VK_SHADER_STAGE_FRAGMENT_BIT, VK_SHADER_STAGE_GEOMETRY_BIT,
 	};
 	const int n_stages = d->geom.size ? 5 : 4;
-	VkShaderModule modules[5] = { 0 };
 	VkPipelineShaderStageCreateInfo stages[5];
-	int ret = 0;
 	for (int i = 0; i < n_stages; i++) {
-		if ((ret = relief_vk_shader_module(vk, code[i]->code, code[i]->size, &modules[i])) < 0)
+		VkShaderModule module; /* the device's, shared: not destroyed here */
+		int ret = relief_vk_shader_module(vk, code[i]->code, code[i]->size, &module);
+		if (ret < 0)
 			return ret;
 		stages[i] = (VkPipelineShaderStageCreateInfo){
 			.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
 			.stage = stage[i],
-			.module = modules[i],
+			.module = module,
 			.pName = "main",
 		};
 	}
