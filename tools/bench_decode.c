@@ -5,8 +5,10 @@
  * medians over --runs runs:
  *   cpu_ref   one thread: fetch, entropy-decode and reconstruct every patch (tree walk);
  *   entropy   one thread: fetch and entropy-decode only (the CPU share of the GPU path);
- *   normals   one thread: the packed normal maps of every decoded patch (common/normals.c),
- *             what a CPU decoder would add to fill the pool the renderer reads;
+ *   normals   one thread: the packed normal maps of every decoded patch (common/normals.c);
+ *   strips    one thread: their transition strip bounds (common/strip_bound.c): with
+ *             normals, what a CPU decoder would add to fill the pool the renderer reads
+ *             (ratio_same_outputs: cpu_ref + normals + strips over gpu);
  *   gpu       wall time from the first request to the last patch resident in the cache:
  *             the worker thread entropy-decodes while the GPU reconstructs, in batches;
  *             gpu_busy_ms is the GPU's own time from timestamps at each batch's start and
@@ -31,6 +33,7 @@
 #include "normals.h"
 #include "parallel.h"
 #include "patch_cache.h"
+#include "strip_bound.h"
 #include "vk.h"
 
 static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers, bool pass_timing, double *wall,
@@ -58,37 +61,53 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 	return ret < 0 ? ret : 0;
 }
 
-/* What a CPU decoder would also pay to fill the pool the renderer reads: the packed
- * normal map (common/normals.c, the shader's twin) of every decoded patch, with its
- * validity from the patch's mask. The blocks are decoded first, untimed. The block errors
- * and ranges are stored in the file and copied on either path; uploads are not counted. */
-static int cpu_normals_run(const struct relief_file *f, double *secs)
+/* What a CPU decoder would also pay to fill the pool the renderer reads, for every decoded
+ * patch: the packed normal map (common/normals.c, the normals pass's twin) with its
+ * validity from the patch's mask, and the transition strip bounds (common/strip_bound.c,
+ * the strips pass's twin), each timed apart. The blocks are decoded first, untimed, and
+ * come in entry order (relief_decode_level_blocks()): a level's index window may be
+ * smaller than its grid of patches. The block errors and ranges are stored in the file and
+ * copied on either path; uploads are not counted. */
+static int cpu_outputs_run(const struct relief_file *f, double *normals_secs, double *strips_secs)
 {
 	const struct relief_layout *lay = &f->layout;
 	const uint32_t P = lay->geom.P, E = lay->geom.E;
+	const size_t ne = relief_block_errors_per_patch(P);
 	uint8_t *mask = malloc((size_t)P * P);
 	uint32_t *out = malloc(sizeof(uint32_t) * P * P);
-	int ret = mask && out ? 0 : -ENOMEM;
-	*secs = 0;
+	float *eps = malloc(sizeof(float) * ne);
+	float *strips = malloc(sizeof(float) * (size_t)lay->blocks * lay->blocks * 4 * RELIEF_STRIP_FLOATS);
+	int ret = mask && out && eps && strips ? 0 : -ENOMEM;
+	*normals_secs = *strips_secs = 0;
 	for (uint32_t l = 0; l < lay->levels && ret == 0; l++) {
 		int32_t *blocks;
 		if ((ret = relief_decode_level_blocks(f, l, 1, &blocks)) < 0)
 			break;
-		double t = bench_now();
-		for (uint32_t i = 0; i < (1u << (2 * l)) && ret == 0; i++) {
-			uint32_t id = relief_level_first_id(l) + i;
+		const float q2 = (float)(2.0 * lay->delta[l]);
+		for (uint32_t i = 0; i < f->hdr.index_cols[l] * f->hdr.index_rows[l] && ret == 0; i++) {
+			const uint32_t id = relief_index_patch(&f->hdr, f->hdr.index_first[l] + i);
+			const int32_t *block = blocks + (size_t)i * E * E;
 			struct relief_patch_record r;
 			relief_file_record(f, id, &r);
 			if (r.flags & RELIEF_PATCH_EMPTY)
 				continue;
-			if ((ret = relief_file_mask(f, id, mask)) == 0)
-				relief_normals_pack(f, l, blocks + (size_t)i * E * E, mask, out);
+			if ((ret = relief_file_mask(f, id, mask)) < 0)
+				break;
+			double t = bench_now();
+			relief_normals_pack(f, l, block, mask, out);
+			*normals_secs += bench_now() - t;
+			relief_file_block_errors(f, id, eps);
+			t = bench_now();
+			ret = relief_strip_bounds(block, P, q2, eps, l + 1 == lay->levels, relief_file_measured_draw_error(f, &r),
+			                          strips);
+			*strips_secs += bench_now() - t;
 		}
-		*secs += bench_now() - t;
 		free(blocks);
 	}
 	free(mask);
 	free(out);
+	free(eps);
+	free(strips);
 	return ret;
 }
 
@@ -198,7 +217,7 @@ int bench_decode(int argc, char **argv)
 	const uint32_t P = f->hdr.patch_size;
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
-	double cpu[16], ent[16], nrm[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], gpu_str[16], worker[16];
+	double cpu[16], ent[16], nrm[16], str[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], gpu_str[16], worker[16];
 	double prof_busy[16], prof_wall;
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
@@ -228,7 +247,7 @@ int bench_decode(int argc, char **argv)
 		}
 		ent[i] = bench_now() - t;
 		relief_decoder_finish(&dec);
-		if (ret < 0 || (ret = cpu_normals_run(f, &nrm[i])) < 0 || (ret = gpu_run(vk, f, workers, false, &gpu[i], &st)) < 0)
+		if (ret < 0 || (ret = cpu_outputs_run(f, &nrm[i], &str[i])) < 0 || (ret = gpu_run(vk, f, workers, false, &gpu[i], &st)) < 0)
 			goto fail;
 		gpu_busy[i] = st.gpu_ns * 1e-9;
 		worker[i] = st.entropy_ns * 1e-9;
@@ -244,7 +263,7 @@ int bench_decode(int argc, char **argv)
 	if ((ret = descent_run(vk, f, &descent)) < 0)
 		goto fail;
 	double c = bench_median(cpu, runs), e = bench_median(ent, runs), g = bench_median(gpu, runs);
-	double cn = bench_median(nrm, runs);
+	double cn = bench_median(nrm, runs), cs = bench_median(str, runs);
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
 	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs), gs = bench_median(gpu_str, runs);
 	double pb = bench_median(prof_busy, runs);
@@ -257,11 +276,11 @@ int bench_decode(int argc, char **argv)
 		       "\"gpu_wall_ms\":%.4f,\"gpu_busy_ms\":%.2f,\"gpu_profiled_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
 		       "\"gpu_normals_pass_ms\":%.2f,\"gpu_strips_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
 		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u,"
-		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"ratio_same_outputs\":%.3f",
+		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"cpu_strips_ms\":%.4f,\"ratio_same_outputs\":%.3f",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, pb * 1e3, gd * 1e3, gn * 1e3,
 		       gs * 1e3, w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
-		       (c + cn) / g);
+		       cs * 1e3, (c + cn + cs) / g);
 		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
@@ -277,8 +296,9 @@ int bench_decode(int argc, char **argv)
 		printf("    with pass timestamps       %8.2f ms busy: decode pass %.2f ms, normals pass %.2f ms, strips "
 		       "pass %.2f ms\n",
 		       pb * 1e3, gd * 1e3, gn * 1e3, gs * 1e3);
-		printf("  CPU normals (1 thread)       %8.2f ms  (the shader's twin; with the reference: %.2f ms, "
-		       "ratio GPU/CPU at equal outputs %.2f)\n", cn * 1e3, (c + cn) * 1e3, (c + cn) / g);
+		printf("  CPU normals (1 thread)       %8.2f ms  (the normals pass's twin)\n", cn * 1e3);
+		printf("  CPU strip bounds (1 thread)  %8.2f ms  (the strips pass's twin; with the reference and the normals: "
+		       "%.2f ms, ratio GPU/CPU at equal outputs %.2f)\n", cs * 1e3, (c + cn + cs) * 1e3, (c + cn + cs) / g);
 		printf("  GPU memory per resident patch: %llu bytes (heights, normals, block records: errors, ranges, which have data)\n",
 		       (unsigned long long)st.bytes_per_layer);
 		printf("  descent: root to finest patch (%u levels) resident after %u updates\n", f->hdr.levels, descent);
