@@ -38,6 +38,7 @@ int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_
 			.stage = stage[i],
 			.module = module,
 			.pName = "main",
+			.pSpecializationInfo = stage[i] == VK_SHADER_STAGE_TESSELLATION_EVALUATION_BIT ? d->tese_spec : NULL,
 		};
 	}
 	VkPipelineVertexInputStateCreateInfo vertex = { .sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO };

@@ -21,6 +21,8 @@ struct relief_vk_tess_pipeline_desc {
 	/* Cull back faces: clockwise triangles in the framebuffer (y down), the underside of a
 	 * terrain whose evaluation shader emits the quad domain counter-clockwise. */
 	bool cull_back;
+	/* The evaluation stage's specialization constants (NULL: the shader's defaults). */
+	const VkSpecializationInfo *tese_spec;
 };
 
 /* The pipeline has dynamic viewport and scissor, depth test LESS with writes, back faces

@@ -172,18 +172,8 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	                                             &t->factors)) < 0)
 		goto fail;
 	t->pass = target->pass;
-	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
-	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_fill)) < 0)
+	if ((ret = terrain_draw_pipelines_create(t, false, false)) < 0)
 		goto fail;
-	d.cull_back = true;
-	if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_cull)) < 0)
-		goto fail;
-	d.cull_back = false;
-	if (vk->has.fill_mode_non_solid) {
-		d.wireframe = true;
-		if ((ret = relief_vk_tess_pipeline_create(vk, &d, &t->draw_wire)) < 0)
-			goto fail;
-	}
 	*out = t;
 	return 0;
 fail:
@@ -191,20 +181,37 @@ fail:
 	return ret;
 }
 
-int terrain_mesh_pipelines_create(struct relief_terrain *t)
+int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool mesh)
 {
-	if (t->mesh_fill)
-		return 0;
+	struct draw_pipelines *p = &t->draw[morph];
+	const VkBool32 code = morph;
+	const VkSpecializationMapEntry entry = { 0, 0, sizeof(code) }; /* MORPH_CODE */
+	const VkSpecializationInfo spec = { 1, &entry, sizeof(code), &code };
 	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
-	d.tese = RELIEF_SPIRV(terrain_mesh_tese_spv);
-	d.geom = RELIEF_SPIRV(terrain_mesh_geom_spv);
-	int ret = relief_vk_tess_pipeline_create(t->vk, &d, &t->mesh_fill);
-	d.cull_back = true;
-	if (ret == 0 && (ret = relief_vk_tess_pipeline_create(t->vk, &d, &t->mesh_cull)) < 0) {
-		vkDestroyPipeline(t->vk->device, t->mesh_fill, NULL);
-		t->mesh_fill = VK_NULL_HANDLE;
+	d.tese_spec = &spec;
+	/* Each slot with what it draws: solid, solid culled, wireframe; the capture's two. */
+	struct {
+		VkPipeline *pipe;
+		bool want, cull_back, wireframe, capture;
+	} slots[] = {
+		{ &p->fill, true, false, false, false },
+		{ &p->cull, true, true, false, false },
+		{ &p->wire, t->vk->has.fill_mode_non_solid, false, true, false },
+		{ &p->mesh_fill, mesh, false, false, true },
+		{ &p->mesh_cull, mesh, true, false, true },
+	};
+	for (size_t i = 0; i < sizeof(slots) / sizeof(slots[0]); i++) {
+		if (!slots[i].want || *slots[i].pipe)
+			continue;
+		d.cull_back = slots[i].cull_back;
+		d.wireframe = slots[i].wireframe;
+		d.tese = slots[i].capture ? RELIEF_SPIRV(terrain_mesh_tese_spv) : RELIEF_SPIRV(terrain_tese_spv);
+		d.geom = slots[i].capture ? RELIEF_SPIRV(terrain_mesh_geom_spv) : (struct relief_vk_spirv){ 0 };
+		int ret = relief_vk_tess_pipeline_create(t->vk, &d, slots[i].pipe);
+		if (ret < 0)
+			return ret;
 	}
-	return ret;
+	return 0;
 }
 
 uint64_t relief_terrain_bytes(const struct relief_terrain *t)
@@ -217,11 +224,17 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[10] = { t->select, t->force, t->commands, t->borders, t->factors, t->draw_fill, t->draw_cull,
-		                 t->draw_wire, t->mesh_fill, t->mesh_cull };
-	for (int i = 0; i < 10; i++)
+	VkPipeline pipes[5] = { t->select, t->force, t->commands, t->borders, t->factors };
+	for (int i = 0; i < 5; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
+	for (int m = 0; m < 2; m++) {
+		const struct draw_pipelines *p = &t->draw[m];
+		VkPipeline draw[5] = { p->fill, p->cull, p->wire, p->mesh_fill, p->mesh_cull };
+		for (int i = 0; i < 5; i++)
+			if (draw[i])
+				vkDestroyPipeline(dev, draw[i], NULL);
+	}
 	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };
 	for (int i = 0; i < 4; i++)
 		if (layouts[i])

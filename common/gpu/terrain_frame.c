@@ -50,6 +50,11 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
+	/* The pipelines of this kind of view, made the first time one is drawn. */
+	int ret = terrain_draw_pipelines_create(t, view->morph, opts->mesh);
+	if (ret < 0)
+		return ret;
+	const struct draw_pipelines *pipes = &t->draw[view->morph];
 	/* Everything hangs from the root: make sure it is on its way. */
 	if (relief_patch_cache_state(t->cache, 0) == RELIEF_PATCH_ABSENT)
 		relief_patch_cache_request(t->cache, 0, -1.0f);
@@ -109,7 +114,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	};
 
 	VkCommandBuffer cmd;
-	int ret = relief_vk_cmd_record(vk, &cmd);
+	ret = relief_vk_cmd_record(vk, &cmd);
 	if (ret < 0)
 		return ret;
 	relief_vk_timer_reset(&v->timer, cmd);
@@ -226,11 +231,11 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	 * decided by other arithmetic than its coverage, and a sliver upper side called
 	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). */
 	const VkDeviceSize split = offsetof(struct counters, draw_split);
-	VkPipeline fill, cull; /* draw_fill and draw_cull, or the mesh capture's twins */
-	mesh_pipelines(t, opts->mesh, &fill, &cull);
-	for (int pass = 0; pass < (wire && t->draw_wire ? 2 : 1); pass++) {
+	VkPipeline fill, cull; /* pipes->fill and cull, or the mesh capture's twins */
+	mesh_pipelines(pipes, opts->mesh, &fill, &cull);
+	for (int pass = 0; pass < (wire && pipes->wire ? 2 : 1); pass++) {
 		if (pass == 1)
-			draw_records(t, v, cmd, t->draw_wire, &dp, mode | 1u, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, pipes->wire, &dp, mode | 1u, 0, offsetof(struct counters, draws));
 		else if (gpu_cull) { /* one of the first two counts is 0 */
 			draw_records(t, v, cmd, cull, &dp, mode | MODE_SKIP_CLIPPED, 0, split);
 			draw_records(t, v, cmd, fill, &dp, mode, 0, split + 4);

@@ -132,6 +132,13 @@ static inline VkDescriptorType binding_type(uint32_t i)
 	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
+/* One kind of view's draw pipelines. cull: fill with back faces culled, for cameras above
+ * the surface; wire: the wireframe pass, where the device has fill_mode_non_solid; the
+ * mesh capture's twins of fill and cull (terrain_mesh.c), once a frame asks for them. */
+struct draw_pipelines {
+	VkPipeline fill, cull, wire, mesh_fill, mesh_cull;
+};
+
 struct relief_terrain {
 	struct relief_vk *vk;
 	const struct relief_file *file;
@@ -139,12 +146,12 @@ struct relief_terrain {
 	struct relief_vk_buffer info, windows;
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
-	/* draw_cull: draw_fill with back faces culled, for cameras above the surface */
 	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
-	VkPipeline select, force, commands, borders, factors, draw_fill, draw_cull, draw_wire;
-	/* draw_fill and draw_cull with the mesh capture's stages (terrain_mesh.c), made when a
-	 * view first enables it */
-	VkPipeline mesh_fill, mesh_cull;
+	VkPipeline select, force, commands, borders, factors;
+	/* The draw pipelines, [0] for views without geomorphing, [1] for views with it
+	 * (relief_view.morph: the evaluation shader's MORPH_CODE), each made when a frame first
+	 * needs it (terrain_draw_pipelines_create()). */
+	struct draw_pipelines draw[2];
 	VkRenderPass pass; /* the target's, which every pipeline draws into */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame
 	 * at most (every layer drawn, each with four curtains: a loose bound) */
@@ -201,11 +208,12 @@ struct relief_terrain_view {
 struct mesh_header {
 	uint32_t count, cap, pad[2];
 };
-/* terrain.c: the mesh capture's pipelines (t->mesh_fill, mesh_cull), once. */
-int terrain_mesh_pipelines_create(struct relief_terrain *t);
+/* terrain.c: makes t->draw[morph]'s pipelines that are missing: fill, cull and wire, and
+ * the mesh capture's twins if `mesh`. 0 or a negative errno; what was made stays. */
+int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool mesh);
 /* terrain_mesh.c: the pipelines a frame draws with (the capture's for a frame drawn with
  * relief_draw_options.mesh), and such a frame's part before and after its draws. */
-void mesh_pipelines(const struct relief_terrain *t, bool mesh, VkPipeline *fill, VkPipeline *cull);
+void mesh_pipelines(const struct draw_pipelines *d, bool mesh, VkPipeline *fill, VkPipeline *cull);
 void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o);
 void mesh_frame_end(VkCommandBuffer cmd);
 

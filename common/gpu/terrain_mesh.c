@@ -17,9 +17,7 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
 		return -EBUSY;
 	if (max_triangles == 0 || max_triangles > UINT32_MAX / 4) /* the shader's index 4 k + 3 */
 		return -EINVAL;
-	int ret = terrain_mesh_pipelines_create(t);
-	if (ret < 0)
-		return ret;
+	int ret;
 	struct relief_vk_buffer b = { 0 };
 	const VkDeviceSize size = sizeof(struct mesh_header) + 64 * (VkDeviceSize)max_triangles;
 	if ((ret = relief_vk_buffer_init(vk, &b, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
@@ -46,10 +44,10 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
 	return 0;
 }
 
-void mesh_pipelines(const struct relief_terrain *t, bool mesh, VkPipeline *fill, VkPipeline *cull)
+void mesh_pipelines(const struct draw_pipelines *d, bool mesh, VkPipeline *fill, VkPipeline *cull)
 {
-	*fill = mesh ? t->mesh_fill : t->draw_fill;
-	*cull = mesh ? t->mesh_cull : t->draw_cull;
+	*fill = mesh ? d->mesh_fill : d->fill;
+	*cull = mesh ? d->mesh_cull : d->cull;
 }
 
 void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o)
