@@ -23,11 +23,6 @@ layout(location = 1) flat out float out_q2; // metres per quantum of the patch's
 layout(location = 2) out vec2 out_s;          // patch sample coordinates: validity, normal, height per fragment
 layout(location = 3) flat out int out_layer;
 precise gl_Position; // shared border vertices get identical bits in both patches
-// Specialization constant 0: the pipeline draws views that geomorph (relief_view.morph).
-// The pipelines for views without morphing set it false, so the compiler leaves
-// morphed_height() out: present, its code slowed every frame on lavapipe though no vertex
-// took it (docs/lod.md, "Morphing": what it costs when off).
-layout(constant_id = 0) const bool MORPH_CODE = true;
 #ifdef RELIEF_MESH
 // The vertex as drawn, exactly: its finest-grid index (column, row) relative to the
 // camera's cell, the height drawn there (metres) and the patch's id.
