@@ -172,7 +172,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	                                             &t->factors)) < 0)
 		goto fail;
 	t->pass = target->pass;
-	if ((ret = terrain_draw_pipelines_create(t, false, false)) < 0)
+	if ((ret = terrain_draw_pipelines_create(t, false, false, false)) < 0)
 		goto fail;
 	*out = t;
 	return 0;
@@ -181,7 +181,7 @@ fail:
 	return ret;
 }
 
-int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool mesh)
+int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wire, bool mesh)
 {
 	struct draw_pipelines *p = &t->draw[morph];
 	const VkBool32 code = morph;
@@ -196,7 +196,7 @@ int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool mes
 	} slots[] = {
 		{ &p->fill, true, false, false, false },
 		{ &p->cull, true, true, false, false },
-		{ &p->wire, t->vk->has.fill_mode_non_solid, false, true, false },
+		{ &p->wire, wire && t->vk->has.fill_mode_non_solid, false, true, false },
 		{ &p->mesh_fill, mesh, false, false, true },
 		{ &p->mesh_cull, mesh, true, false, true },
 	};

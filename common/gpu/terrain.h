@@ -95,8 +95,8 @@ int relief_terrain_draw(struct relief_terrain *t, struct relief_terrain_view *v,
  * and `target` belong to the device: give each view in flight a target of its own, do not
  * read the target, and do not update the cache (relief_patch_cache_update() refuses, see
  * relief_patch_cache_hold()). Frames run in submission order. The first frame of a view
- * with morph set (or drawn with opts->mesh) makes the pipelines it needs, once per
- * terrain: views without morphing draw through pipelines without its code. */
+ * with morph set (or drawn with opts->wire or opts->mesh) makes the pipelines it needs,
+ * once per terrain: views without morphing draw through pipelines without its code. */
 int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
                                struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts);
 int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_view *v, struct relief_terrain_stats *st);

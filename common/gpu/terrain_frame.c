@@ -50,8 +50,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
-	/* The pipelines of this kind of view, made the first time one is drawn. */
-	int ret = terrain_draw_pipelines_create(t, view->morph, opts->mesh);
+	/* The pipelines this frame draws with, made the first time a frame needs them. */
+	int ret = terrain_draw_pipelines_create(t, view->morph, wire, opts->mesh);
 	if (ret < 0)
 		return ret;
 	const struct draw_pipelines *pipes = &t->draw[view->morph];

@@ -134,7 +134,8 @@ static inline VkDescriptorType binding_type(uint32_t i)
 
 /* One kind of view's draw pipelines. cull: fill with back faces culled, for cameras above
  * the surface; wire: the wireframe pass, where the device has fill_mode_non_solid; the
- * mesh capture's twins of fill and cull (terrain_mesh.c), once a frame asks for them. */
+ * mesh capture's twins of fill and cull (terrain_mesh.c). wire and the twins are made when
+ * a frame first asks for them. */
 struct draw_pipelines {
 	VkPipeline fill, cull, wire, mesh_fill, mesh_cull;
 };
@@ -208,9 +209,10 @@ struct relief_terrain_view {
 struct mesh_header {
 	uint32_t count, cap, pad[2];
 };
-/* terrain.c: makes t->draw[morph]'s pipelines that are missing: fill, cull and wire, and
- * the mesh capture's twins if `mesh`. 0 or a negative errno; what was made stays. */
-int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool mesh);
+/* terrain.c: makes t->draw[morph]'s pipelines that are missing: fill and cull, wire if
+ * `wire` (and the device has fill_mode_non_solid), the mesh capture's twins if `mesh`. 0
+ * or a negative errno; what was made stays. */
+int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wire, bool mesh);
 /* terrain_mesh.c: the pipelines a frame draws with (the capture's for a frame drawn with
  * relief_draw_options.mesh), and such a frame's part before and after its draws. */
 void mesh_pipelines(const struct draw_pipelines *d, bool mesh, VkPipeline *fill, VkPipeline *cull);
