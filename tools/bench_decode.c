@@ -91,9 +91,9 @@ static int cpu_outputs_run(const struct relief_file *f, double *normals_secs, do
 			relief_file_record(f, id, &r);
 			if (r.flags & RELIEF_PATCH_EMPTY)
 				continue;
+			double t = bench_now();
 			if ((ret = relief_file_mask(f, id, mask)) < 0)
 				break;
-			double t = bench_now();
 			relief_normals_pack(f, l, block, mask, out);
 			*normals_secs += bench_now() - t;
 			relief_file_block_errors(f, id, eps);
