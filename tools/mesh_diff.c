@@ -31,6 +31,18 @@ static int quad_cmp(const void *pa, const void *pb)
 	return c ? c : factors_cmp(a, b);
 }
 
+/* Copies the n records of src to dst leaving out each that equals the one kept before it
+ * (quad_cmp(): a record's padding is not part of its quad); returns how many are kept. dst
+ * may be src. */
+static uint64_t drop_adjacent_copies(struct relief_mesh_quad *dst, const struct relief_mesh_quad *src, uint64_t n)
+{
+	uint64_t m = 0;
+	for (uint64_t k = 0; k < n; k++)
+		if (m == 0 || quad_cmp(&dst[m - 1], &src[k]) != 0)
+			dst[m++] = src[k];
+	return m;
+}
+
 int mesh_quads_init(struct mesh_quads *qs, const struct relief_mesh_quad *tri_quads, uint64_t n)
 {
 	*qs = (struct mesh_quads){ 0 };
@@ -38,19 +50,12 @@ int mesh_quads_init(struct mesh_quads *qs, const struct relief_mesh_quad *tri_qu
 		return 0;
 	if (!(qs->q = malloc(sizeof(*qs->q) * n)))
 		return -ENOMEM;
-	/* A quad's triangles mostly come one after another: copies of the record before are
-	 * left out first, so that the sort sees about one record a quad, not one a triangle.
-	 * Compared by their fields (quad_cmp()): a record's padding is not part of its quad. */
-	uint64_t m = 0;
-	for (uint64_t k = 0; k < n; k++)
-		if (m == 0 || quad_cmp(&qs->q[m - 1], &tri_quads[k]) != 0)
-			qs->q[m++] = tri_quads[k];
+	/* A quad's triangles mostly come one after another: their copies are left out before the
+	 * sort, so that it sees about one record a quad, not one a triangle; after it, every
+	 * copy is adjacent. */
+	uint64_t m = drop_adjacent_copies(qs->q, tri_quads, n);
 	qsort(qs->q, m, sizeof(*qs->q), quad_cmp);
-	uint64_t u = 1;
-	for (uint64_t k = 1; k < m; k++)
-		if (quad_cmp(&qs->q[u - 1], &qs->q[k]) != 0)
-			qs->q[u++] = qs->q[k];
-	qs->n = u;
+	qs->n = drop_adjacent_copies(qs->q, qs->q, m);
 	return 0;
 }
 
