@@ -1,9 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "terrain_common.glsl"
-// Cuts the drawn patches' quad-patch instances into indirect draw records of at most
-// per_draw instances each (the lavapipe bound on tessellated vertices per draw), writes
-// the record count for vkCmdDrawIndirectCount and the workgroup counts of lod_factors.comp
+// Run before lod_factors.comp (phase 0), writes the workgroup counts of lod_factors.comp
 // (64 quads per group) and lod_borders.comp (64 border items per group) for
 // vkCmdDispatchIndirect.
 //
@@ -15,11 +13,17 @@
 // includes b and those coarser blocks (each at least b's side), so the largest height
 // range over them bounds the surface there. If no drawn block holds the eye (the patch
 // under it is outside the frustum), the CPU's conservative decision stands (cpu_cull).
-// The record count goes to draw_split[0] (culled pipeline) or [1] (back faces drawn).
 //
-// Run again after lod_factors.comp (phase 1), it cuts the clipped list (the quads that
-// pipeline draws with back faces kept, docs/lod.md "Back faces") into records of its own,
-// after the first max_draws, and counts them in draw_split[2].
+// Run again after lod_factors.comp (phase 1), it lists the quads that draw something
+// (factors not all 0): the shown list from the front of the lists buffer, and, in a frame
+// that culls back faces, the clipped list (the quads that pipeline draws with back faces
+// kept, docs/lod.md "Back faces"; factors[].w = 1) from its back, both in quad order, so the
+// draws keep the order of the quads from frame to frame. Quads that draw nothing (unseen
+// blocks, blocks without data, curtains inside the terrain) then cost no vertex or control
+// shader. Each list is cut into indirect draw records of at most per_draw quads (the
+// lavapipe bound on tessellated vertices per draw): the shown list's from cmds[0], counted
+// in draws and in draw_split[0] (culling pipeline) or [1] (the other), the clipped list's
+// from cmds[max_draws], counted in draw_split[2], its quads in draw_split[3].
 layout(local_size_x = 64) in;
 
 struct DrawCmd { uint vertex_count, instance_count, first_vertex, first_instance; };
@@ -42,12 +46,14 @@ layout(push_constant) uniform Push {
 	uint cpu_cull;  // the CPU's decision (relief_surface_height_bound()), used when no block holds the eye
 	float margin;   // metres above the bound for culling (FACE_CULL_MARGIN)
 	uint gpu_decides; // this decision splits the draws; else cpu_cull is the one drawn with
-	uint phase;     // 0: the frame's records and the decision; 1: the clipped list's records
+	uint phase;     // 0: the decision and the factor pass's size; 1: the lists and their records
 } pc;
-layout(std430, binding = 19) readonly buffer Clipped { uint clipped_count; uint clipped[]; };
+layout(std430, binding = 13) readonly buffer Factors { uvec4 factors[]; };
+layout(std430, binding = 19) writeonly buffer Lists { uint lists[]; };
 
 shared uint s_high; // largest block height near the eye, as an ordered key (height_key)
 shared uint s_found;
+shared uvec2 s_counts[64]; // per lane, its run's shown and clipped quads (phase 1)
 
 // Float bits as an unsigned key that orders like the floats (for atomicMax).
 uint height_key(float h)
@@ -96,16 +102,50 @@ uint write_records(uint at, uint total)
 	return draws;
 }
 
+// Phase 1, one workgroup: each lane takes a run of consecutive quads, counts what each list
+// gets from it, then writes its quads after those of the runs before it.
+void lists_write(uint total)
+{
+	uint lane = gl_LocalInvocationIndex, per = (total + 63u) / 64u;
+	uint q0 = min(lane * per, total), q1 = min(q0 + per, total);
+	uvec2 n = uvec2(0u);
+	for (uint q = q0; q < q1; q++) {
+		uvec4 f = factors[q];
+		if (f.x != 0u)
+			n += f.w != 0u ? uvec2(0u, 1u) : uvec2(1u, 0u);
+	}
+	s_counts[lane] = n;
+	barrier();
+	uvec2 at = uvec2(0u), all = uvec2(0u);
+	for (uint j = 0u; j < 64u; j++) {
+		at += j < lane ? s_counts[j] : uvec2(0u);
+		all += s_counts[j];
+	}
+	uint back = uint(lists.length()) - 1u;
+	for (uint q = q0; q < q1; q++) {
+		uvec4 f = factors[q];
+		if (f.x == 0u)
+			continue;
+		if (f.w != 0u)
+			lists[back - at.y++] = q;
+		else
+			lists[at.x++] = q;
+	}
+	uint draws = write_records(0u, all.x), clipped_draws = write_records(pc.max_draws, all.y);
+	if (lane == 0u) {
+		bool cull = counters.face_culled != 0u;
+		counters.draws = draws;
+		counters.draw_split = uvec4(cull ? draws : 0u, cull ? 0u : draws, clipped_draws, all.y);
+	}
+}
+
 void main()
 {
+	uint total = counters.drawn * pc.per_patch + counters.curtains * pc.blocks;
 	if (pc.phase == 1u) {
-		uint draws = write_records(pc.max_draws, clipped_count);
-		if (gl_LocalInvocationIndex == 0u)
-			counters.draw_split.zw = uvec2(draws, clipped_count);
+		lists_write(total);
 		return;
 	}
-	uint total = counters.drawn * pc.per_patch + counters.curtains * pc.blocks;
-	uint draws = write_records(0u, total);
 	if (gl_LocalInvocationIndex == 0u) {
 		s_high = 0u;
 		s_found = 0u;
@@ -117,12 +157,10 @@ void main()
 	barrier();
 	if (gl_LocalInvocationIndex == 0u) {
 		bool cull = s_found != 0u ? draw_eye.z > key_height(s_high) + pc.margin : pc.cpu_cull != 0u;
-		counters.draws = draws;
 		counters.face_culled = cull ? 1u : 0u;
 		counters.found = s_found;
 		counters.near_high = key_height(s_high);
 		counters.draw_culled = (pc.gpu_decides != 0u ? cull : pc.cpu_cull != 0u) ? 1u : 0u;
-		counters.draw_split = uvec4(cull ? draws : 0u, cull ? 0u : draws, 0u, 0u);
 		counters.factor_groups = uvec4((total + 63u) / 64u, 1u, 1u, 0u);
 		counters.border_groups = uvec4((counters.drawn * (4u * pc.blocks + 4u) + 63u) / 64u, 1u, 1u, 0u);
 	}

@@ -185,8 +185,6 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 
 layout(std430, binding = 13) writeonly buffer Factors { uvec4 factors[]; };
 layout(std430, binding = 16) writeonly buffer Seals { uvec4 seals[]; };
-// Quads drawn with back faces kept in a frame that culls them (docs/lod.md, "Back faces").
-layout(std430, binding = 19) buffer Clipped { uint clipped_count; uint clipped[]; };
 
 void main()
 {
@@ -204,11 +202,10 @@ void main()
 	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);
-	// A drawn quad that the rasteriser may clip goes to the clipped list when back faces
-	// are culled: the culling pipeline drops it (w = 1) and the other draws it.
+	// A drawn quad that the rasteriser may clip goes to the clipped list (w = 1) when back
+	// faces are culled: the other pipeline draws it (docs/lod.md, "Back faces"), and
+	// lod_commands.comp lists it.
 	bool listed = counters.draw_culled != 0u && ob.x != 0u && !inside;
-	if (listed)
-		clipped[atomicAdd(clipped_count, 1u)] = q;
 	factors[q] = uvec4(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u) | (m.y << 16u), m.x,
 	                   listed ? 1u : 0u);
 }

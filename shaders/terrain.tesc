@@ -27,8 +27,6 @@ void main()
 	if (gl_InvocationID != 0)
 		return;
 	uvec4 f = factors[in_quad[0]];
-	if ((pc.mode & MODE_SKIP_CLIPPED) != 0u && f.w != 0u)
-		f.xy = uvec2(0u); // drawn by the clipped list's draw instead
 	gl_TessLevelOuter[0] = byte_of(f.x, 0u);
 	gl_TessLevelOuter[1] = byte_of(f.x, 1u);
 	gl_TessLevelOuter[2] = byte_of(f.x, 2u);

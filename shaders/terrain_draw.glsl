@@ -30,7 +30,8 @@ layout(push_constant) uniform DrawPush {
 	float cam_z;      // metres
 	// per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no
 	// skirts; bit 4: no block culling; bit 5: morphing; bit 6: blocks without data drawn;
-	// bit 7: the clipped list's quads dropped; bit 8: quads taken from the clipped list
+	// bit 8: quads taken from the clipped list, not the shown list (lod_commands.comp); bit
+	// 9: transition strips unbounded
 	uint P, blocks, per_patch, mode;
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
@@ -45,7 +46,6 @@ const uint MODE_NO_SKIRTS = 8u; // tests: leave every crack open
 const uint MODE_NO_BLOCK_CULL = 16u; // tests: tessellate unseen blocks too (lod_factors.comp)
 const uint MODE_MORPH = 32u; // the view geomorphs level changes (relief_view.morph, terrain_factors.glsl)
 const uint MODE_KEEP_EMPTY_BLOCKS = 64u; // tests: tessellate blocks without a valid sample too
-const uint MODE_SKIP_CLIPPED = 128u; // the culling pipeline's draw: the clipped list draws those quads
 const uint MODE_CLIPPED_LIST = 256u; // the clipped list's draw (back faces kept)
 const uint MODE_LOOSE_STRIPS = 512u; // transition strips unbounded (relief_view.loose_transitions, terrain_factors.glsl)
 

@@ -9,6 +9,8 @@
  * transition strips unbounded (--loose, relief-loose: what bounding them costs) and relief
  * and chunked without block culling (--unculled).
  * The cache is warm (every patch resident), so frames measure LOD, not streaming.
+ * triangles and quads: per frame, the primitives reaching the clipper and the quad patches
+ * the control shader ran for (pipeline statistics; 0 where the device has none).
  *
  * Error: at every pixel showing terrain, the vertical distance from the drawn surface to the
  * finest decoded surface, projected to pixels (the quantity tau bounds); max and RMS over all
@@ -109,7 +111,7 @@ struct config {
 };
 
 struct result {
-	double ms_median, ms_p95, select_ms, lod_ms, triangles, patches, max_err, p999_err, rms_err, popping;
+	double ms_median, ms_p95, select_ms, lod_ms, triangles, quads, patches, max_err, p999_err, rms_err, popping;
 	double camera_popping;
 	double popping_median, popping_max; /* over the pairs: the mean above is made by a few */
 	/* The pairs in which some pixel's error changed by more than POP_EVENT_PX (events), the
@@ -386,7 +388,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		ret = relief_terrain_view_mesh_enable(tv, MESH_CAP);
 	if (analyse && !r->mesh)
 		mesh_unmeasured(res);
-	double tri = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
+	double tri = 0, quads = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
 	uint32_t shade_frames = 0;
 	/* With a mesh capture, the frozen frame's quads, compared with the own frame's in each
 	 * popping event (the frozen frame is drawn through the capture's pipelines, which draw
@@ -433,6 +435,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		sel[i] = st.select_ns / 1e6;
 		lod[i] = st.lod_ns / 1e6;
 		tri += (double)st.triangles;
+		quads += (double)st.quads;
 		patches += st.patches;
 		if (!analyse)
 			continue;
@@ -493,6 +496,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	}
 	if (ret == 0) {
 		res->triangles = tri / n;
+		res->quads = quads / n;
 		res->patches = patches / n;
 	}
 	if (ret == 0 && analyse) {
@@ -764,17 +768,18 @@ int bench_lod(int argc, char **argv)
 		res[i].lod_ms = bench_median(lod + at, count);
 		if (json) {
 			printf("{\"method\":\"%s\",\"tau_px\":%g,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,"
-			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"patches\":%.1f,"
-			       "\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
+			       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"quads\":%.0f,"
+			       "\"patches\":%.1f,\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
 			       "\"popping_pairs\":%u,\"popping_events\":%u,\"popping_event_pixels\":%llu,"
 			       "\"popping_pixel_max_px\":%.4f,"
 			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
 			       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u,\"face_culled_frames\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
-			       res[i].triangles, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err, res[i].popping,
-			       res[i].camera_popping, res[i].popping_median, res[i].popping_max, frames, res[i].pop_events,
-			       (unsigned long long)res[i].pop_event_pixels, res[i].pop_pixel_max, res[i].shade_popping, res[i].shade_err,
+			       res[i].triangles, res[i].quads, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err,
+			       res[i].popping, res[i].camera_popping, res[i].popping_median, res[i].popping_max, frames,
+			       res[i].pop_events, (unsigned long long)res[i].pop_event_pixels, res[i].pop_pixel_max,
+			       res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
 			       (unsigned long long)res[i].excluded, per_run, runs, w, h, res[i].face_culled);
 			if (res[i].max_err_3x >= 0)

@@ -26,6 +26,9 @@ struct relief_terrain_stats {
 	uint32_t draws;         /* indirect draw records */
 	uint32_t requests;      /* missing patches asked for this frame */
 	uint64_t triangles;     /* primitives reaching the clipper (pipeline statistics), 0 if unsupported */
+	/* quad patches the control shader ran for (pipeline statistics), 0 if unsupported: the
+	 * quads that draw something, listed after the factor pass (lod_commands.comp) */
+	uint64_t quads;
 	uint64_t gpu_ns;        /* whole frame (LOD compute, draw, copy-out) */
 	uint64_t select_ns;     /* coarse LOD compute: patch selection and draw records */
 	uint64_t lod_ns;        /* all LOD compute: select_ns plus the tessellation-factor pass */

@@ -16,7 +16,7 @@ static int want_cmp(const void *a, const void *b)
 	return x < y ? -1 : x > y;
 }
 
-/* Records draw records with `pipe` in mode `mode`: the frame's quads' (list 0) or the
+/* Records draw records with `pipe` in mode `mode`: the shown list's (list 0) or the
  * clipped list's (1), as many as the count at `count_at` in the view's counters (all of
  * them where vkCmdDrawIndirectCount is missing: unused records hold zero instances). */
 static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd, VkPipeline pipe,
@@ -137,7 +137,6 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
-	vkCmdFillBuffer(cmd, v->clipped.buffer, 0, 4, 0); /* its count */
 	if (opts->mesh)
 		mesh_frame_begin(v, cmd, &o);
 	/* The selection visits the patches of its frontiers only and writes their split state:
@@ -207,7 +206,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_ACCESS_SHADER_READ_BIT);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
-	/* The clipped list's draw records (lod_commands.comp, phase 1). */
+	/* The lists of quads that draw something, and their draw records (lod_commands.comp,
+	 * phase 1): the draws run no shader for the others. */
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT);
 	cp.phase = 1;
@@ -234,14 +234,15 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	VkPipeline fill, cull; /* pipes->fill and cull, or the mesh capture's twins */
 	mesh_pipelines(pipes, opts->mesh, &fill, &cull);
 	for (int pass = 0; pass < (wire && pipes->wire ? 2 : 1); pass++) {
-		if (pass == 1)
+		if (pass == 1) { /* both lists: the clipped one is empty unless back faces are culled */
 			draw_records(t, v, cmd, pipes->wire, &dp, mode | 1u, 0, offsetof(struct counters, draws));
-		else if (gpu_cull) { /* one of the first two counts is 0 */
-			draw_records(t, v, cmd, cull, &dp, mode | MODE_SKIP_CLIPPED, 0, split);
+			draw_records(t, v, cmd, pipes->wire, &dp, mode | 1u | MODE_CLIPPED_LIST, 1, split + 8);
+		} else if (gpu_cull) { /* one of the first two counts is 0 */
+			draw_records(t, v, cmd, cull, &dp, mode, 0, split);
 			draw_records(t, v, cmd, fill, &dp, mode, 0, split + 4);
 			draw_records(t, v, cmd, fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
 		} else if (cpu_cull) {
-			draw_records(t, v, cmd, cull, &dp, mode | MODE_SKIP_CLIPPED, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, cull, &dp, mode, 0, offsetof(struct counters, draws));
 			draw_records(t, v, cmd, fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
 		} else
 			draw_records(t, v, cmd, fill, &dp, mode, 0, offsetof(struct counters, draws));
@@ -300,12 +301,17 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */
 	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
-	if (v->stats_pool &&
-	    (ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(uint64_t),
-	                                                     &s.triangles, sizeof(uint64_t),
-	                                                     VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
-	                           "vkGetQueryPoolResults")) < 0)
-		return ret;
+	/* The statistics in the order of their bits: clipping invocations, control shader patches. */
+	uint64_t stats[2];
+	if (v->stats_pool) {
+		const VkQueryResultFlags flags = VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT;
+		if ((ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(stats), stats,
+		                                                     sizeof(stats), flags),
+		                           "vkGetQueryPoolResults")) < 0)
+			return ret;
+		s.triangles = stats[0];
+		s.quads = stats[1];
+	}
 	/* No timestamps on this queue (-ENOTSUP): the times stay 0. */
 	uint64_t stamp[4];
 	v->timed = true;

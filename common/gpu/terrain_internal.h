@@ -40,7 +40,7 @@ struct commands_push {
 	uint32_t cpu_cull; /* relief_surface_height_bound()'s decision, for when no drawn block holds the eye */
 	float margin;      /* FACE_CULL_MARGIN */
 	uint32_t gpu_decides; /* the GPU's decision splits the draws (vkCmdDrawIndirectCount); else cpu_cull's */
-	uint32_t phase;       /* 0: draw records and the decision; 1: the clipped list's records, after the factors */
+	uint32_t phase;       /* 0: the decision, before the factors; 1: the quad lists and their records, after them */
 };
 
 struct draw_push {
@@ -80,8 +80,8 @@ struct counters {
 	uint32_t face_culled, found;
 	float near_high;
 	uint32_t draw_culled; /* the decision the frame draws with: the GPU's, or cpu_cull without a split */
-	/* draw records for the culling pipeline, for the other, of the clipped list (both
-	 * lod_commands.comp), and the quads in that list (lod_factors.comp) */
+	/* draw records of the shown list for the culling pipeline, for the other, of the
+	 * clipped list, and the quads in that list (all lod_commands.comp, phase 1) */
 	uint32_t draw_split[4];
 };
 /* The per-view camera buffer (binding 15): the drawing view-projection, then the drawing
@@ -101,9 +101,8 @@ struct draw_camera {
 #define MODE_NO_BLOCK_CULL 16u
 #define MODE_MORPH 32u
 #define MODE_KEEP_EMPTY_BLOCKS 64u
-/* Back faces culled: the control shader drops the quads of the clipped list (bit 7); the
- * vertex shader reads quad indices from that list (bit 8). docs/lod.md, "Back faces". */
-#define MODE_SKIP_CLIPPED 128u
+/* The vertex shader reads quad indices from the clipped list, not the shown list (bit 8;
+ * lod_commands.comp). docs/lod.md, "Back faces". */
 #define MODE_CLIPPED_LIST 256u
 #define MODE_LOOSE_STRIPS 512u
 
@@ -117,8 +116,9 @@ struct draw_camera {
  * 16 seal records (uvec4 per quad, terrain_seal.glsl),
  * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
  * 18 the cache's use distances (patch_cache.h, pool.use_dist),
- * 19 the clipped list (a count, then the indices of quads the rasteriser may clip,
- * lod_factors.comp), 20 the selection's frontiers (uvec2 per patch, lod_select.comp),
+ * 19 the quad lists (indices of the quads that draw something: the shown list from the
+ * front, the clipped list, those the rasteriser may clip in a frame that culls back faces,
+ * from the back; lod_commands.comp), 20 the selection's frontiers (uvec2 per patch, lod_select.comp),
  * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count),
  * 22 the index windows (per level: entry columns, rows, first entry, 0),
  * 23 the mesh capture (terrain_mesh.geom; written only once a view enables it, and read
@@ -162,9 +162,10 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	/* cmds: max_draws records of the frame's quads, then max_draws of the clipped list */
+	/* cmds: max_draws records of the shown list, then max_draws of the clipped list; lists:
+	 * both lists, max_quads entries (binding 19) */
 	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains,
-		clipped, frontier, passes;
+		lists, frontier, passes;
 	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;

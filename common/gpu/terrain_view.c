@@ -31,7 +31,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage },
 		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
 		{ &v->camera, sizeof(struct draw_camera), storage },
-		{ &v->clipped, 4 + 4 * (VkDeviceSize)t->max_quads, storage },
+		{ &v->lists, 4 * (VkDeviceSize)t->max_quads, storage },
 		{ &v->frontier, 8 * (VkDeviceSize)t->count, storage },
 		{ &v->passes, 16 * RELIEF_MAX_LEVELS, indirect },
 	};
@@ -73,7 +73,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
 		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
-		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->clipped.buffer,
+		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->lists.buffer,
 		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
 		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */ };
 		VkDescriptorBufferInfo bi[BINDINGS];
@@ -98,8 +98,10 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	}
 	VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
 	if ((vk->has.pipeline_statistics &&
-	     (ret = relief_vk_query_pool_create(vk, VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT, 1,
-	                                        &v->stats_pool)) < 0) ||
+	     (ret = relief_vk_query_pool_create(vk,
+	                                        VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT |
+	                                                VK_QUERY_PIPELINE_STATISTIC_TESSELLATION_CONTROL_SHADER_PATCHES_BIT,
+	                                        1, &v->stats_pool)) < 0) ||
 	    ((ret = relief_vk_timer_init(vk, &v->timer, 4)) < 0 && ret != -ENOTSUP) ||
 	    (ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &v->fence), "vkCreateFence")) < 0)
 		goto fail;
@@ -141,7 +143,7 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_buffer_finish(vk, &v->borders);
 	relief_vk_buffer_finish(vk, &v->curtains);
 	relief_vk_buffer_finish(vk, &v->camera);
-	relief_vk_buffer_finish(vk, &v->clipped);
+	relief_vk_buffer_finish(vk, &v->lists);
 	relief_vk_buffer_finish(vk, &v->frontier);
 	relief_vk_buffer_finish(vk, &v->passes);
 	relief_vk_buffer_finish(vk, &v->cmds);

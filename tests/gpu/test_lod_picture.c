@@ -90,7 +90,8 @@ static void test_shading_keeps_detail(void **state)
 
 /* Renders v with o, then again with the culling that *keep turns off (set here), and checks
  * that the two pictures, colour and depth, are the same bit for bit with terrain in them,
- * and that culling drew no more triangles; adds both counts to *culled and *all. */
+ * and that culling drew no more triangles, from no more quads; adds both triangle counts
+ * to *culled and *all. */
 static void check_cull_keeps_picture(struct bound_scene *b, struct relief_view *v, struct relief_draw_options *o,
                                      bool *keep, const char *what, uint64_t *culled, uint64_t *all)
 {
@@ -104,25 +105,32 @@ static void check_cull_keeps_picture(struct bound_scene *b, struct relief_view *
 	uint32_t terrain = 0;
 	for (size_t k = 0; k < (size_t)BW * BH; k++)
 		terrain += b->ref[k] > 0.0f;
-	print_message("%s, %s tau %g: %u terrain pixels, %llu triangles culled, %llu not\n", what,
-	              o->fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v->tau, terrain,
-	              (unsigned long long)with.triangles, (unsigned long long)without.triangles);
+	print_message("%s, %s tau %g: %u terrain pixels, %llu triangles in %llu quads culled, %llu in %llu not\n",
+	              what, o->fine == RELIEF_FINE_ERRORS ? "relief" : "chunked", v->tau, terrain,
+	              (unsigned long long)with.triangles, (unsigned long long)with.quads,
+	              (unsigned long long)without.triangles, (unsigned long long)without.quads);
 	assert_true(terrain > 0);
 	assert_memory_equal(b->lod, b->ref, sizeof(float) * BW * BH);
 	assert_memory_equal(colour, b->s.target.color_readback.map, (size_t)BW * BH * 4);
-	if (gpu_test_has_statistics(b->s.ctx))
+	if (gpu_test_has_statistics(b->s.ctx)) {
 		assert_true(with.triangles <= without.triangles);
+		/* A culled block runs no shader at all: only the quads that draw something are
+		 * listed for the draws (lod_commands.comp), so fewer triangles means fewer quads. */
+		assert_true(with.quads > 0 && with.quads <= without.quads);
+		if (with.triangles < without.triangles)
+			assert_true(with.quads < without.quads);
+	}
 	*culled += with.triangles;
 	*all += without.triangles;
 	free(colour);
 }
 
-/* Blocks the draw camera cannot see are not tessellated (block_unseen() in
- * lod_factors.comp): the picture, colour and depth, is bit for bit the one drawn with every
- * block tessellated, from views that cut through patches every way (grazing, steep, banked,
- * straight down, inside the mountain, on a patch corner, a level of detail chosen for one
- * camera and drawn from another), for relief at tau 1 and 4 and for chunked LOD; and
- * culling draws fewer triangles. */
+/* Blocks the draw camera cannot see are not drawn (block_clip() in lod_factors.comp): the
+ * picture, colour and depth, is bit for bit the one drawn with every block tessellated,
+ * from views that cut through patches every way (grazing, steep, banked, straight down,
+ * inside the mountain, on a patch corner, a level of detail chosen for one camera and
+ * drawn from another), for relief at tau 1 and 4 and for chunked LOD; and culling draws
+ * fewer triangles, from fewer quads. */
 static void test_block_cull_keeps_picture(void **state)
 {
 	struct bound_scene b;
