@@ -28,8 +28,8 @@ layout(push_constant) uniform DrawPush {
 	vec2 viewport;    // pixels
 	float tau;        // pixels
 	float cam_z;      // metres
-	// per_patch: blocks^2; mode bit 0: wireframe pass; bits 1-2: fine LOD (FINE_*); bit 3: no
-	// skirts; bit 4: no block culling; bit 5: morphing; bit 6: blocks without data drawn;
+	// per_patch: blocks^2; mode bit 0: wireframe pass; bit 3: no skirts; bit 4: no block
+	// culling; bit 6: blocks without data drawn;
 	// bit 8: quads taken from the clipped list, not the shown list (lod_commands.comp); bit
 	// 9: transition strips unbounded
 	uint P, blocks, per_patch, mode;
@@ -44,7 +44,6 @@ const uint FINE_FULL = 1u;     // every block at full resolution (chunked LOD, f
 const uint FINE_DISTANCE = 2u; // factor from the edge's projected length (no error metric)
 const uint MODE_NO_SKIRTS = 8u; // tests: leave every crack open
 const uint MODE_NO_BLOCK_CULL = 16u; // tests: tessellate unseen blocks too (lod_factors.comp)
-const uint MODE_MORPH = 32u; // the view geomorphs level changes (relief_view.morph, terrain_factors.glsl)
 const uint MODE_KEEP_EMPTY_BLOCKS = 64u; // tests: tessellate blocks without a valid sample too
 const uint MODE_CLIPPED_LIST = 256u; // the clipped list's draw (back faces kept)
 const uint MODE_LOOSE_STRIPS = 512u; // transition strips unbounded (relief_view.loose_transitions, terrain_factors.glsl)
@@ -131,8 +130,19 @@ float sample_height(Instance it, ivec2 m)
 	return h;
 }
 
-// The fine LOD the frame uses (FINE_*).
-uint fine_lod() { return (pc.mode >> 1) & 3u; }
+// The kind of frame a pipeline is made for, as specialization constants, so that the
+// compiler leaves out what the frame does not ask for: lavapipe runs a shader's code for
+// every lane whether or not a lane takes it, and such code slowed every frame (docs/lod.md,
+// "Morphing": what it costs when off; "Fine LOD": the compute passes). terrain.c makes
+// each pipeline the first time a frame needs it.
+// 0: the view geomorphs (relief_view.morph): the blends in the evaluation shader, the
+// morph bytes in the factor and border passes. Without it every morph byte is MORPH_FULL.
+layout(constant_id = 0) const bool MORPH_CODE = true;
+// 1: the fine LOD the factor and border passes compute factors for (FINE_*, the frame's
+// relief_draw_options.fine). The draw stages do not read it.
+layout(constant_id = 1) const uint FINE_LOD = 0u; // FINE_ERRORS
+
+uint fine_lod() { return FINE_LOD; }
 
 // Metres per quantum j levels coarser than `it`: the same sequence of products as the
 // selection's (lod_select.comp), so the bits equal the coarser patch's own.

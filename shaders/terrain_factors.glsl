@@ -148,13 +148,13 @@ float allowed_error(vec4 c)
 // and popping at tau = 1 rose; a rate of 4 costs 5-30 % RMS error and lowers the largest
 // per-frame changes at every tau (docs/lod.md, "Morphing"). t travels as a morph byte m,
 // t = m / 256, rounded up (a larger t only lowers the bound); MORPH_FULL (255) means t = 1,
-// and is what a view without morphing (relief_view.morph, MODE_MORPH) and the baselines use:
+// and is what a view without morphing (relief_view.morph, MORPH_CODE) and the baselines use:
 // their factor pass then works out no allowed error, and the evaluation shader skips the
 // blend for a quad whose bytes are all MORPH_FULL.
 const uint MORPH_FULL = 255u;
 const float MORPH_RATE = 4.0;
 
-bool morph_on() { return fine_lod() == FINE_ERRORS && (pc.mode & MODE_MORPH) != 0u; }
+bool morph_on() { return MORPH_CODE && fine_lod() == FINE_ERRORS; }
 
 uint morph_byte(vec4 eps, int d, float allowed)
 {

@@ -119,13 +119,6 @@ uint seal_side(uint j, float fc, int clayer, uint cmorph)
 	return j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | ((uint(clayer) & 0xffffu) << 8u) | (cmorph << 24u);
 }
 
-// Specialization constant 0: the pipeline draws views that geomorph (relief_view.morph).
-// The draw pipelines for views without morphing set it false (every morph byte is then
-// MORPH_FULL), so the compiler leaves the blends out of the evaluation shader: present,
-// their code slowed every frame on lavapipe though no vertex took it (docs/lod.md,
-// "Morphing": what it costs when off). The compute passes keep the default.
-layout(constant_id = 0) const bool MORPH_CODE = true;
-
 // The blend of a vertex's own height h with c, the mean of lo and hi, by morph byte `morph`
 // (terrain_factors.glsl).
 float morph_height(float lo, float h, float hi, uint morph)

@@ -113,8 +113,8 @@ uint32_t relief_vk_quads_per_draw(uint32_t factor)
 	return n ? n : 1;
 }
 
-int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
-                                      VkPipeline *out)
+int relief_vk_compute_pipeline_create_spec(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
+                                           const VkSpecializationInfo *spec, VkPipeline *out)
 {
 	VkShaderModule m;
 	int ret = relief_vk_shader_module(vk, code.code, code.size, &m);
@@ -123,11 +123,17 @@ int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout lay
 	VkComputePipelineCreateInfo info = {
 		.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
 		.stage = { .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-		           .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main" },
+		           .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main", .pSpecializationInfo = spec },
 		.layout = layout,
 	};
 	return relief_vk_check(vk, vkCreateComputePipelines(vk->device, VK_NULL_HANDLE, 1, &info, NULL, out),
 	                       "vkCreateComputePipelines");
+}
+
+int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
+                                      VkPipeline *out)
+{
+	return relief_vk_compute_pipeline_create_spec(vk, layout, code, NULL, out);
 }
 
 int relief_vk_query_pool_create(struct relief_vk *vk, VkQueryPipelineStatisticFlags statistics, uint32_t count,

@@ -29,7 +29,10 @@ struct relief_vk_tess_pipeline_desc {
  * kept unless cull_back (terrain is seen from below when the camera is inside it). */
 int relief_vk_tess_pipeline_create(struct relief_vk *vk, const struct relief_vk_tess_pipeline_desc *d,
                                    VkPipeline *out);
-/* A compute pipeline from SPIR-V (entry point main). */
+/* A compute pipeline from SPIR-V (entry point main); _spec: with specialization constants
+ * (spec may be NULL). */
+int relief_vk_compute_pipeline_create_spec(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
+                                           const VkSpecializationInfo *spec, VkPipeline *out);
 int relief_vk_compute_pipeline_create(struct relief_vk *vk, VkPipelineLayout layout, struct relief_vk_spirv code,
                                       VkPipeline *out);
 /* A query pool: `count` timestamps (statistics == 0) or one pipeline-statistics query

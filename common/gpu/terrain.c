@@ -4,6 +4,7 @@
  * frame (terrain_view.c); a frame is recorded in terrain_frame.c. */
 #include <errno.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -165,14 +166,12 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &t->select)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_force_comp_spv), &t->force)) < 0 ||
 	    (ret = relief_vk_compute_pipeline_create(vk, t->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv),
-	                                             &t->commands)) < 0 ||
-	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv),
-	                                             &t->borders)) < 0 ||
-	    (ret = relief_vk_compute_pipeline_create(vk, t->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv),
-	                                             &t->factors)) < 0)
+	                                             &t->commands)) < 0)
 		goto fail;
 	t->pass = target->pass;
-	if ((ret = terrain_draw_pipelines_create(t, false, false, false)) < 0)
+	const struct lod_pipelines *lp;
+	if ((ret = terrain_lod_pipelines_create(t, RELIEF_FINE_ERRORS, false, &lp)) < 0 ||
+	    (ret = terrain_draw_pipelines_create(t, false, false, false)) < 0)
 		goto fail;
 	*out = t;
 	return 0;
@@ -214,6 +213,33 @@ int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wir
 	return 0;
 }
 
+int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod fine, bool morph,
+                                 const struct lod_pipelines **out)
+{
+	if ((unsigned)fine > RELIEF_FINE_DISTANCE)
+		return -EINVAL;
+	morph = morph && fine == RELIEF_FINE_ERRORS; /* the baselines do not geomorph */
+	struct lod_pipelines *p = &t->lod[fine == RELIEF_FINE_ERRORS ? (unsigned)morph : 1u + (unsigned)fine];
+	*out = p;
+	/* MORPH_CODE (constant 0) and FINE_LOD (constant 1), shaders/terrain_draw.glsl */
+	struct lod_spec {
+		VkBool32 morph;
+		uint32_t fine;
+	};
+	const struct lod_spec data = { morph, (uint32_t)fine };
+	const VkSpecializationMapEntry entries[2] = { { 0, offsetof(struct lod_spec, morph), sizeof(VkBool32) },
+		                                      { 1, offsetof(struct lod_spec, fine), sizeof(uint32_t) } };
+	const VkSpecializationInfo spec = { 2, entries, sizeof(data), &data };
+	int ret = 0;
+	if (!p->borders)
+		ret = relief_vk_compute_pipeline_create_spec(t->vk, t->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv), &spec,
+		                                             &p->borders);
+	if (ret == 0 && !p->factors)
+		ret = relief_vk_compute_pipeline_create_spec(t->vk, t->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv), &spec,
+		                                             &p->factors);
+	return ret;
+}
+
 uint64_t relief_terrain_bytes(const struct relief_terrain *t)
 {
 	return t->info.size + t->windows.size;
@@ -224,10 +250,16 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[5] = { t->select, t->force, t->commands, t->borders, t->factors };
-	for (int i = 0; i < 5; i++)
+	VkPipeline pipes[3] = { t->select, t->force, t->commands };
+	for (int i = 0; i < 3; i++)
 		if (pipes[i])
 			vkDestroyPipeline(dev, pipes[i], NULL);
+	for (int k = 0; k < 4; k++) {
+		if (t->lod[k].borders)
+			vkDestroyPipeline(dev, t->lod[k].borders, NULL);
+		if (t->lod[k].factors)
+			vkDestroyPipeline(dev, t->lod[k].factors, NULL);
+	}
 	for (int m = 0; m < 2; m++) {
 		const struct draw_pipelines *p = &t->draw[m];
 		VkPipeline draw[5] = { p->fill, p->cull, p->wire, p->mesh_fill, p->mesh_cull };

@@ -50,8 +50,11 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
-	/* The pipelines this frame draws with, made the first time a frame needs them. */
-	int ret = terrain_draw_pipelines_create(t, view->morph, wire, opts->mesh);
+	/* The pipelines this frame computes and draws with, made the first time a frame needs them. */
+	const struct lod_pipelines *lp;
+	int ret = terrain_lod_pipelines_create(t, opts->fine, view->morph, &lp);
+	if (ret == 0)
+		ret = terrain_draw_pipelines_create(t, view->morph, wire, opts->mesh);
 	if (ret < 0)
 		return ret;
 	const struct draw_pipelines *pipes = &t->draw[view->morph];
@@ -192,19 +195,18 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
 	relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
-	const uint32_t mode = ((uint32_t)opts->fine << 1) | (opts->no_skirts ? MODE_NO_SKIRTS : 0u) |
-	                      (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) | (view->morph ? MODE_MORPH : 0u) |
+	const uint32_t mode = (opts->no_skirts ? MODE_NO_SKIRTS : 0u) | (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) |
 	                      (opts->keep_empty_blocks ? MODE_KEEP_EMPTY_BLOCKS : 0u) |
 	                      (view->loose_transitions ? MODE_LOOSE_STRIPS : 0u);
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
 	/* The border edges and corners first (lod_borders.comp), then every quad. */
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->borders);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lp->borders);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, border_groups));
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lp->factors);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
 	/* The lists of quads that draw something, and their draw records (lod_commands.comp,
 	 * phase 1): the draws run no shader for the others. */

@@ -94,12 +94,12 @@ struct draw_camera {
 	float eye[4];
 };
 
-/* draw_push.mode: bit 0 wireframe pass, bits 1-2 enum relief_fine_lod, bit 3 no skirts,
- * bit 4 no block culling, bit 5 morphing, bit 6 blocks without data drawn, bit 9 the
- * transition strips left unbounded (relief_view.loose_transitions). */
+/* draw_push.mode: bit 0 wireframe pass, bit 3 no skirts, bit 4 no block culling, bit 6
+ * blocks without data drawn, bit 9 the transition strips left unbounded
+ * (relief_view.loose_transitions). The fine LOD and morphing (bits 1-2 and 5 until December
+ * 2026) are the pipelines' specialization constants (struct lod_pipelines, draw_pipelines). */
 #define MODE_NO_SKIRTS 8u
 #define MODE_NO_BLOCK_CULL 16u
-#define MODE_MORPH 32u
 #define MODE_KEEP_EMPTY_BLOCKS 64u
 /* The vertex shader reads quad indices from the clipped list, not the shown list (bit 8;
  * lod_commands.comp). docs/lod.md, "Back faces". */
@@ -132,6 +132,13 @@ static inline VkDescriptorType binding_type(uint32_t i)
 	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
+/* One kind of frame's factor and border passes (lod_factors.comp, lod_borders.comp), made
+ * with its fine LOD and geomorphing as specialization constants (terrain_draw.glsl), so the
+ * compiler leaves out the other kinds' code. */
+struct lod_pipelines {
+	VkPipeline borders, factors;
+};
+
 /* One kind of view's draw pipelines. cull: fill with back faces culled, for cameras above
  * the surface; wire: the wireframe pass, where the device has fill_mode_non_solid; the
  * mesh capture's twins of fill and cull (terrain_mesh.c). wire and the twins are made when
@@ -148,7 +155,11 @@ struct relief_terrain {
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
-	VkPipeline select, force, commands, borders, factors;
+	VkPipeline select, force, commands;
+	/* The factor and border passes per kind of frame (lod_pipelines_index()): relief's
+	 * without and with geomorphing, chunked LOD's (RELIEF_FINE_FULL), the distance
+	 * baseline's; each made when a frame first needs it (terrain_lod_pipelines_create()). */
+	struct lod_pipelines lod[4];
 	/* The draw pipelines, [0] for views without geomorphing, [1] for views with it
 	 * (relief_view.morph: the evaluation shader's MORPH_CODE), each made when a frame first
 	 * needs it (terrain_draw_pipelines_create()). */
@@ -214,6 +225,11 @@ struct mesh_header {
  * `wire` (and the device has fill_mode_non_solid), the mesh capture's twins if `mesh`. 0
  * or a negative errno; what was made stays. */
 int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wire, bool mesh);
+/* terrain.c: the factor and border passes for frames of fine LOD `fine` from views that
+ * geomorph (`morph`; only relief's own method does), made if missing. 0 or a negative
+ * errno (-EINVAL for an unknown `fine`); what was made stays. */
+int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod fine, bool morph,
+                                 const struct lod_pipelines **out);
 /* terrain_mesh.c: the pipelines a frame draws with (the capture's for a frame drawn with
  * relief_draw_options.mesh), and such a frame's part before and after its draws. */
 void mesh_pipelines(const struct draw_pipelines *d, bool mesh, VkPipeline *fill, VkPipeline *cull);

@@ -345,6 +345,55 @@ static void test_mesh_single_segment_frame(void **state)
 	bound_close(&b);
 }
 
+/* The factors each method's frames draw with, from the capture: each kind of frame has
+ * factor and border passes of its own (terrain_lod_pipelines_create(), the fine LOD a
+ * specialization constant), so a frame that took another kind's would draw other factors.
+ * Chunked LOD draws every block's interior at full resolution (16 segments; its edges may
+ * have fewer where a coarser patch is drawn across, and a curtain quad, 1 segment on its
+ * sides, is left out); relief and the distance baseline draw coarser interiors too, and
+ * not the same frame. Returns the triangles drawn with `fine` and counts in *coarse those
+ * of block quads with an inner factor under 16. */
+static uint64_t mesh_factors(struct bound_scene *b, struct relief_view *v, enum relief_fine_lod fine,
+                             struct relief_mesh_vertex *tri, struct relief_mesh_quad *quads, uint64_t *coarse)
+{
+	struct relief_terrain_stats st;
+	const struct relief_draw_options o = { .fine = fine, .mesh = true };
+	render_with(&b->s, v, &o, b->lod, &st);
+	int64_t n = relief_terrain_view_mesh(b->s.view, tri, quads, MESH_CAP);
+	assert_true(n > 0 && n <= MESH_CAP);
+	*coarse = 0;
+	for (int64_t k = 0; k < n; k++) {
+		const struct relief_mesh_quad *q = &quads[k];
+		bool curtain = q->outer[0] == 1 && q->outer[2] == 1 && q->inner == q->outer[1];
+		*coarse += q->inner < RELIEF_BLOCK_CELLS && !curtain;
+	}
+	return (uint64_t)n;
+}
+
+static void test_mesh_factors_per_method(void **state)
+{
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	assert_int_equal(relief_terrain_view_mesh_enable(b.s.view, MESH_CAP), 0);
+	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)MESH_CAP);
+	struct relief_mesh_quad *quads = malloc(sizeof(*quads) * (size_t)MESH_CAP);
+	assert_true(tri && quads);
+	struct relief_view v = pose_view(&puget_bound_poses[0]);
+	v.tau = 4.0; /* at 1 px this view needs full resolution nearly everywhere */
+	uint64_t coarse[3], n[3];
+	const enum relief_fine_lod methods[3] = { RELIEF_FINE_FULL, RELIEF_FINE_ERRORS, RELIEF_FINE_DISTANCE };
+	for (int m = 0; m < 3; m++) {
+		n[m] = mesh_factors(&b, &v, methods[m], tri, quads, &coarse[m]);
+		print_message("fine LOD %d: %llu triangles, %llu in quads under full resolution\n", (int)methods[m],
+		              (unsigned long long)n[m], (unsigned long long)coarse[m]);
+	}
+	assert_int_equal(coarse[0], 0);
+	assert_true(coarse[1] > 0 && coarse[2] > 0 && n[1] != n[2]);
+	free(quads);
+	free(tri);
+	bound_close(&b);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -358,6 +407,7 @@ int main(void)
 		cmocka_unit_test(test_mesh_capture_and_measure),
 		cmocka_unit_test(test_mesh_loose_transitions),
 		cmocka_unit_test(test_mesh_single_segment_frame),
+		cmocka_unit_test(test_mesh_factors_per_method),
 	};
 	gpu_test_mesh_capture = true;
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
