@@ -29,9 +29,8 @@ layout(push_constant) uniform DrawPush {
 	float tau;        // pixels
 	float cam_z;      // metres
 	// per_patch: blocks^2; mode bit 0: wireframe pass; bit 3: no skirts; bit 4: no block
-	// culling; bit 6: blocks without data drawn;
-	// bit 8: quads taken from the clipped list, not the shown list (lod_commands.comp); bit
-	// 9: transition strips unbounded
+	// culling; bit 6: blocks without data drawn; bit 8: quads taken from the clipped list,
+	// not the shown list (lod_commands.comp); bit 9: transition strips unbounded
 	uint P, blocks, per_patch, mode;
 	vec4 sun;         // xyz: towards the sun
 	vec2 hrange;      // colour ramp heights, metres
@@ -134,7 +133,8 @@ float sample_height(Instance it, ivec2 m)
 // compiler leaves out what the frame does not ask for: lavapipe runs a shader's code for
 // every lane whether or not a lane takes it, and such code slowed every frame (docs/lod.md,
 // "Morphing": what it costs when off; "Fine LOD": the compute passes). terrain.c makes
-// each pipeline the first time a frame needs it.
+// each pipeline the first time a frame needs it (relief's without morphing with the
+// terrain).
 // 0: the view geomorphs (relief_view.morph): the blends in the evaluation shader, the
 // morph bytes in the factor and border passes. Without it every morph byte is MORPH_FULL.
 layout(constant_id = 0) const bool MORPH_CODE = true;
