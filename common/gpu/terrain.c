@@ -180,12 +180,29 @@ fail:
 	return ret;
 }
 
+/* The kind of frame a pipeline is made for: the specialization constants of
+ * shaders/terrain_draw.glsl, MORPH_CODE (0) and FINE_LOD (1). */
+struct kind_spec {
+	VkBool32 morph;
+	uint32_t fine;
+};
+
+static const VkSpecializationMapEntry kind_spec_entries[2] = {
+	{ 0, offsetof(struct kind_spec, morph), sizeof(VkBool32) },
+	{ 1, offsetof(struct kind_spec, fine), sizeof(uint32_t) },
+};
+
+static VkSpecializationInfo kind_spec_info(const struct kind_spec *k)
+{
+	return (VkSpecializationInfo){ 2, kind_spec_entries, sizeof(*k), k };
+}
+
 int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wire, bool mesh)
 {
 	struct draw_pipelines *p = &t->draw[morph];
-	const VkBool32 code = morph;
-	const VkSpecializationMapEntry entry = { 0, 0, sizeof(code) }; /* MORPH_CODE */
-	const VkSpecializationInfo spec = { 1, &entry, sizeof(code), &code };
+	/* The draw stages read MORPH_CODE only. */
+	const struct kind_spec kind = { morph, RELIEF_FINE_ERRORS };
+	const VkSpecializationInfo spec = kind_spec_info(&kind);
 	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
 	d.tese_spec = &spec;
 	/* Each slot with what it draws: solid, solid culled, wireframe; the capture's two. */
@@ -221,15 +238,8 @@ int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod 
 	morph = morph && fine == RELIEF_FINE_ERRORS; /* the baselines do not geomorph */
 	struct lod_pipelines *p = &t->lod[fine == RELIEF_FINE_ERRORS ? (unsigned)morph : 1u + (unsigned)fine];
 	*out = p;
-	/* MORPH_CODE (constant 0) and FINE_LOD (constant 1), shaders/terrain_draw.glsl */
-	struct lod_spec {
-		VkBool32 morph;
-		uint32_t fine;
-	};
-	const struct lod_spec data = { morph, (uint32_t)fine };
-	const VkSpecializationMapEntry entries[2] = { { 0, offsetof(struct lod_spec, morph), sizeof(VkBool32) },
-		                                      { 1, offsetof(struct lod_spec, fine), sizeof(uint32_t) } };
-	const VkSpecializationInfo spec = { 2, entries, sizeof(data), &data };
+	const struct kind_spec kind = { morph, (uint32_t)fine };
+	const VkSpecializationInfo spec = kind_spec_info(&kind);
 	int ret = 0;
 	if (!p->borders)
 		ret = relief_vk_compute_pipeline_create_spec(t->vk, t->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv), &spec,

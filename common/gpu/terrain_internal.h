@@ -156,9 +156,9 @@ struct relief_terrain {
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
 	VkPipeline select, force, commands;
-	/* The factor and border passes per kind of frame (lod_pipelines_index()): relief's
-	 * without and with geomorphing, chunked LOD's (RELIEF_FINE_FULL), the distance
-	 * baseline's; each made when a frame first needs it (terrain_lod_pipelines_create()). */
+	/* The factor and border passes per kind of frame: [0] relief's without and [1] with
+	 * geomorphing, [2] chunked LOD's (RELIEF_FINE_FULL), [3] the distance baseline's; each
+	 * made when a frame first needs it (terrain_lod_pipelines_create()). */
 	struct lod_pipelines lod[4];
 	/* The draw pipelines, [0] for views without geomorphing, [1] for views with it
 	 * (relief_view.morph: the evaluation shader's MORPH_CODE), each made when a frame first
