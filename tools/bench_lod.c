@@ -90,6 +90,7 @@
 #include <string.h>
 
 #include "bench.h"
+#include "bench_flight.h"
 #include "bench_util.h"
 #include "cli.h"
 #include "decode.h"
@@ -108,7 +109,12 @@ struct config {
 	bool reference; /* the full-resolution render: fills run.ref_err */
 	bool morph;     /* the views geomorph (relief_view.morph) */
 	bool loose;     /* the views' transition strips unbounded (relief_view.loose_transitions) */
+	uint8_t *changed; /* --every-frame: per pair of the line, whether this method's drawn patches change */
 };
+
+/* The full grid, then up to 8 values each for relief, distance, chunked and the --unculled
+ * (two), --morphed and --loose methods. */
+#define MAX_CONFIGS (1 + 8 * 7)
 
 struct result {
 	double ms_median, ms_p95, select_ms, lod_ms, triangles, quads, patches, max_err, p999_err, rms_err, popping;
@@ -138,6 +144,8 @@ struct result {
 	 * kind OTHER or UNKNOWN over all frames */
 	double mesh_max, mesh_transition, mesh_regular_worse, transitions;
 	double mesh_kind[3], mesh_other;
+	/* --every-frame: popping, camera popping and shade popping over every pair of the line */
+	struct bench_flight_mean every[3];
 };
 /* Triangles one frame's mesh capture holds (64 bytes each on the device, 96 on the CPU). */
 #define MESH_CAP (1u << 22)
@@ -159,6 +167,11 @@ struct run {
 	struct relief_vk_target fine;
 	bool recheck_all;
 	bool trace_events; /* each popping event's changed quads to stderr */
+	/* --every-frame: pair i is the line's pair flight_at[i] (frames flight_at[i] and + 1), of
+	 * flight_pairs; flight_sampled[i]: in the even sample (bench_flight.h). NULL otherwise. */
+	const uint32_t *flight_at;
+	const uint8_t *flight_sampled;
+	uint32_t flight_pairs;
 	/* |error| in px per frame and pixel of the reference render (NaN: no terrain), or NULL
 	 * while the reference itself is measured */
 	float *ref_err;
@@ -195,6 +208,8 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 		for (uint32_t x = 0; x < W; x++) {
 			size_t k = (size_t)y * W + x;
 			err[k] = NAN;
+			if (c->reference && a)
+				ref[k] = NAN; /* no terrain, unless written below */
 			if (!(depth[k] > 0.0f)) /* reversed Z: 0 is the background */
 				continue;
 			struct relief_vec3 p = relief_view_unproject(v, (int)x, (int)y, depth[k]);
@@ -362,6 +377,16 @@ static int capture_quads(struct run *r, int64_t n, struct mesh_quads *qs, bool *
 	return *ok ? mesh_quads_init(qs, r->mesh_quads, (uint64_t)n) : 0;
 }
 
+/* Pose `pose` as configuration c draws it: the tessellator's tau, morphing, strips. */
+static struct relief_view config_view(const struct config *c, const struct relief_view *pose)
+{
+	struct relief_view v = *pose;
+	v.tau = c->param > 0 && c->opts.fine == RELIEF_FINE_ERRORS ? c->param : 1.0;
+	v.morph = c->morph;
+	v.loose_transitions = c->loose;
+	return v;
+}
+
 /* Renders the flight once with configuration c; GPU and selection times of its frames go
  * to ms[], sel[] and lod[] (2 x frames each). With `analyse`, also the errors and popping. */
 static int measure(struct run *r, const struct config *c, bool analyse, double *ms, double *sel, double *lod,
@@ -371,7 +396,11 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	float *err = malloc(sizeof(float) * W * H), *prev = malloc(sizeof(float) * W * H);
 	float *frozen = malloc(sizeof(float) * W * H), *frozen_depth = malloc(sizeof(float) * W * H);
 	uint8_t *frozen_rgba = malloc((size_t)4 * W * H);
-	double *pops = malloc(sizeof(double) * (r->frames ? r->frames : 1)); /* per pair */
+	double *pops = malloc(sizeof(double) * (r->frames ? r->frames : 1)); /* per pair measured */
+	/* per pair, NaN where not measured: popping, camera and shade popping (for --every-frame) */
+	double *pair = malloc(sizeof(double) * 3 * r->frames);
+	for (uint32_t k = 0; pair && k < 3 * r->frames; k++)
+		pair[k] = NAN;
 	/* Methods that bound their error by tau get their pixels over it rechecked. */
 	const bool bounded = !c->reference && c->opts.fine != RELIEF_FINE_DISTANCE;
 	struct error_stats a = {
@@ -381,7 +410,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		.over_px = malloc(sizeof(float) * W * H),
 	};
 	struct relief_terrain_view *tv = NULL;
-	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && a.hist && a.over && a.over_px
+	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && pair && a.hist && a.over && a.over_px
 	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
 	if (ret == 0 && analyse && r->mesh)
@@ -399,11 +428,13 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		res->pop_quads_measured = r->mesh != NULL;
 	uint32_t pairs = 0;
 	for (uint32_t i = 0; i < n && ret == 0; i++) {
-		struct relief_view view = r->views[i], *v = &view;
-		view.tau = c->param > 0 && c->opts.fine == RELIEF_FINE_ERRORS ? c->param : 1.0; /* the tessellator's tau */
-		view.morph = c->morph;
-		view.loose_transitions = c->loose;
+		struct relief_view view = config_view(c, &r->views[i]), *v = &view;
 		struct relief_terrain_stats st;
+		/* --every-frame: the line's frames since the last pair, so that the hysteresis is the flight's */
+		const uint32_t from = i < 2 || !r->flight_at ? 0 : r->flight_at[i / 2 - 1] + 2;
+		if (r->flight_at && i % 2 == 0 && from < r->flight_at[i / 2] &&
+		    (ret = bench_flight_replay(r->f, r->gpu.terrain, tv, v, &c->opts, from, r->flight_at[i / 2])) < 0)
+			break;
 		/* One untimed frame settles the view's hysteresis on the first pose. */
 		if (i == 0 && (ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1000, &c->opts, &st)) < 0)
 			break;
@@ -411,10 +442,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			/* Untimed: this camera with the previous frame's LOD. The view's selection state
 			 * is that frame's, and selecting again for its camera keeps it (hysteresis is
 			 * idempotent), so the timed frame below is unchanged. */
-			struct relief_view before = r->views[i - 1];
-			before.tau = view.tau;
-			before.morph = view.morph;
-			before.loose_transitions = view.loose_transitions;
+			struct relief_view before = config_view(c, &r->views[i - 1]);
 			struct relief_draw_options o = c->opts;
 			o.lod_view = &before;
 			o.mesh = r->mesh != NULL;
@@ -468,6 +496,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 				camera_pop += dc;
 				shade_pop += ds;
 				pops[pairs++] = d;
+				pair[i / 2] = d;
+				pair[r->frames + i / 2] = dc;
+				pair[2 * r->frames + i / 2] = ds;
 				res->pop_events += moved > 0;
 				res->pop_event_pixels += moved;
 				res->pop_pixel_max = fmax(res->pop_pixel_max, most);
@@ -521,6 +552,14 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		for (uint32_t k = 0; k < pairs; k++)
 			res->popping_max = fmax(res->popping_max, pops[k]);
 		res->popping_median = pairs ? bench_median(pops, pairs) : 0;
+		if (r->flight_at) { /* over every pair of the line (bench_flight.h) */
+			for (int q = 0; q < 3; q++)
+				res->every[q] = bench_flight_mean(r->flight_pairs, c->changed, r->flight_at, r->flight_sampled,
+				                                 r->frames, pair + (size_t)q * r->frames);
+			res->popping = res->every[0].mean;
+			res->camera_popping = res->every[1].mean;
+			res->shade_popping = res->every[2].mean;
+		}
 	}
 	mesh_quads_finish(&frozen_quads);
 	mesh_quads_finish(&own_quads);
@@ -534,35 +573,62 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	free(frozen_depth);
 	free(frozen_rgba);
 	free(pops);
+	free(pair);
 	return ret;
 }
 
-/* A straight, low flight across the terrain's middle, looking ahead and down: `frames` key
- * poses a tenth of the map apart, each followed by the next frame of a flight at
- * FLIGHT_SPEED seen at FRAME_RATE (views 2i and 2i + 1), so that popping is measured between
- * frames as close as a real image generator renders them. It starts a fraction of a sample
- * off the patch grid, away from the planes of patch borders. */
-#define FLIGHT_SPEED 250.0 /* m/s */
-#define FRAME_RATE 60.0    /* Hz */
-
+/* The flight: `frames` key poses (bench_flight.h), each followed by the next frame
+ * (views 2i and 2i + 1), so that popping is measured between frames as close as a real
+ * image generator renders them. */
 static void flight(const struct relief_file *f, uint32_t frames, uint32_t w, uint32_t h, struct relief_view *views)
 {
-	const struct relief_header *hd = &f->hdr;
-	double ex = hd->spacing_x * (hd->width - 1), ey = hd->spacing_y * (hd->height - 1);
-	double x0 = hd->origin_x + 0.30 * ex + 0.37 * hd->spacing_x, y0 = hd->origin_y - 0.70 * ey + 0.61 * hd->spacing_y;
-	double dx = 0.10 * ex / frames, dy = 0.10 * ey / frames; /* north-east, a tenth of the map */
-	double z = hd->height_min + 0.8 * (hd->height_max - hd->height_min) + 100.0;
-	double reach = sqrt(ex * ex + ey * ey) + 10 * (hd->height_max - hd->height_min);
-	double step = FLIGHT_SPEED / FRAME_RATE / sqrt(dx * dx + dy * dy); /* of (dx, dy) per frame */
-	for (uint32_t i = 0; i < 2 * frames; i++) {
-		double t = i / 2 + (i % 2 ? step : 0.0), x = x0 + dx * t, y = y0 + dy * t;
-		views[i] = (struct relief_view){
-			.eye = { x, y, z },
-			.target = { x + 0.2 * ex, y + 0.2 * ey, z - 0.06 * sqrt(ex * ex + ey * ey) },
-			.fovy = 55.0 * M_PI / 180.0, .width = w, .height = h,
-			.znear = 1.0, .zfar = 2 * reach, .tau = 1.0, /* reversed Z keeps depth precise far away */
-		};
+	const double step = bench_flight_step(f, frames);
+	for (uint32_t i = 0; i < 2 * frames; i++)
+		views[i] = bench_flight_view(f, w, h, frames, i / 2 + (i % 2 ? step : 0.0));
+}
+
+/* -1 for what could not be measured (JSON has no NaN). */
+static double finite_or(double x)
+{
+	return isfinite(x) ? x : -1;
+}
+
+/* At most this many pairs measured with --every-frame. */
+#define EVERY_FRAME_CAP 500
+
+/* The pairs measured with --every-frame: each configuration's level of detail chosen for
+ * every frame of the line in turn (bench_flight_events()), then every pair in which one of them
+ * draws other patches and `sample` pairs spread evenly (bench_flight_choose()). Sets
+ * r->frames to their count and r->flight_*; cfg[i].changed keeps configuration i's events.
+ * -E2BIG when more than EVERY_FRAME_CAP pairs are needed. */
+static int every_frame_choose(struct run *r, struct config *cfg, int n, uint32_t sample, uint32_t w, uint32_t h,
+                        uint32_t *at, uint8_t *sampled)
+{
+	const uint32_t pairs = bench_flight_frames(r->f) - 1;
+	const struct relief_view pose = bench_flight_view(r->f, w, h, 1, 0.0);
+	const uint8_t *changed[MAX_CONFIGS];
+	for (int i = 0; i < n; i++) {
+		if (!(cfg[i].changed = calloc(pairs, 1)))
+			return -ENOMEM;
+		struct relief_terrain_view *tv;
+		int ret = relief_terrain_view_create(r->gpu.terrain, &tv);
+		if (ret < 0)
+			return ret;
+		const struct relief_view like = config_view(&cfg[i], &pose);
+		ret = bench_flight_events(r->f, r->gpu.terrain, tv, &like, &cfg[i].opts, cfg[i].changed);
+		relief_terrain_view_destroy(tv);
+		if (ret < 0)
+			return ret;
+		changed[i] = cfg[i].changed;
 	}
+	int count = bench_flight_choose(pairs, changed, (uint32_t)n, sample, at, sampled, EVERY_FRAME_CAP);
+	if (count < 0)
+		return count;
+	r->frames = (uint32_t)count;
+	r->flight_at = at;
+	r->flight_sampled = sampled;
+	r->flight_pairs = pairs;
+	return 0;
 }
 
 int bench_lod(int argc, char **argv)
@@ -574,11 +640,12 @@ int bench_lod(int argc, char **argv)
 		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
 		{ "morphed", no_argument, NULL, 'M' }, { "recheck-all", no_argument, NULL, 'A' },
 		{ "loose", no_argument, NULL, 'L' },  { "trace-events", no_argument, NULL, 'E' },
-		{ "help", no_argument, NULL, 'h' },
+		{ "every-frame", required_argument, NULL, 'K' }, { "help", no_argument, NULL, 'h' },
 		{ 0 },
 	};
 	bool json = false, unculled = false, morphed = false, recheck_all = false, loose = false, trace = false;
-	uint32_t frames = 8, w = 480, h = 270, runs = 3;
+	uint32_t frames = 8, w = 480, h = 270, runs = 3, every = 0;
+	bool frames_given = false;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
 	uint32_t ntau = 5, ntarget = 5;
 	const char *device = NULL;
@@ -589,6 +656,11 @@ int bench_lod(int argc, char **argv)
 		case 'J': json = true; break;
 		case 'n':
 			if (!cli_parse_u32("bench lod", "--frames", optarg, 1, 1000, &frames))
+				return EXIT_USAGE;
+			frames_given = true;
+			break;
+		case 'K':
+			if (!cli_parse_u32("bench lod", "--every-frame", optarg, 1, EVERY_FRAME_CAP, &every))
 				return EXIT_USAGE;
 			break;
 		case 'r':
@@ -638,10 +710,19 @@ int bench_lod(int argc, char **argv)
 			       "splits it into the tessellator's transition triangles and the regular ones).\n"
 			       "Popping events (pairs in which some pixel's error changes by over 0.01 px): the\n"
 			       "JSON counts the quads whose factors the change of LOD alone changed in them;\n"
-			       "--trace-events lists each event's quads on stderr.\n");
+			       "--trace-events lists each event's quads on stderr.\n"
+			       "--every-frame K: popping over every frame of the flight's line (a tenth of the map):\n"
+			       "each method's LOD is chosen for all of them in turn, and the pairs in which some\n"
+			       "method's drawn patches change are measured with K more spread evenly; popping is then\n"
+			       "each method's mean over all the line's pairs, its events counted once, the rest by the\n"
+			       "sample (JSON popping_se_px: that part's standard error). Not with --frames.\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
+	}
+	if (every && frames_given) {
+		fprintf(stderr, "relief bench lod: --frames and --every-frame exclude each other (the line sets the pairs)\n");
+		return EXIT_USAGE;
 	}
 	if (argc - optind != 1) {
 		fprintf(stderr, "relief bench lod: expected one FILE.relief\n");
@@ -659,14 +740,13 @@ int bench_lod(int argc, char **argv)
 	int status = 1, ret;
 	struct relief_vk_options vo = { .device = device, .log = &cli_log, .mesh_capture = true };
 	struct relief_patch_cache_options co = { .budget_bytes = 1ull << 30 };
-	r.views = calloc(2 * frames, sizeof(*r.views));
-	r.ref_err = malloc(sizeof(float) * 2 * frames * w * h);
-	r.ref_rgba = malloc((size_t)4 * 2 * frames * w * h);
-	r.ref_depth = malloc(sizeof(float) * 2 * frames * w * h);
+	struct config cfg[MAX_CONFIGS];
+	int n = 0;
+	uint32_t *flight_at = NULL;
+	uint8_t *flight_sampled = NULL;
 	relief_level_extent(&f->hdr, f->hdr.levels - 1, &r.fw, &r.fh);
 	finest = malloc(sizeof(float) * r.fw * r.fh);
-	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth || !finest ||
-	    (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
+	if (!finest || (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
 		fprintf(stderr, "relief bench lod: %s: cannot decode the finest level\n", path);
 		goto out;
 	}
@@ -684,15 +764,12 @@ int bench_lod(int argc, char **argv)
 			goto out;
 		}
 	}
-	flight(f, frames, w, h, r.views);
 	if (r.gpu.vk->has.mesh_capture && (!(r.mesh = malloc(sizeof(*r.mesh) * 3 * (size_t)MESH_CAP)) ||
 	                                   !(r.mesh_quads = malloc(sizeof(*r.mesh_quads) * (size_t)MESH_CAP)))) {
 		fprintf(stderr, "relief bench lod: out of memory\n");
 		goto out;
 	}
 
-	struct config cfg[1 + 8 * 7];
-	int n = 0;
 	cfg[n++] = (struct config){
 		.method = "full-grid", .opts = { .fine = RELIEF_FINE_FULL, .select_tau = 1e-4 }, .reference = true
 	};
@@ -729,12 +806,50 @@ int bench_lod(int argc, char **argv)
 			.method = "relief-loose", .param = taus[i],
 			.opts = { .fine = RELIEF_FINE_ERRORS, .select_tau = taus[i] }, .loose = true
 		};
+	if (every) {
+		flight_at = malloc(sizeof(*flight_at) * EVERY_FRAME_CAP);
+		flight_sampled = malloc(EVERY_FRAME_CAP);
+		if (!flight_at || !flight_sampled) {
+			fprintf(stderr, "relief bench lod: out of memory\n");
+			goto out;
+		}
+		if ((ret = every_frame_choose(&r, cfg, n, every, w, h, flight_at, flight_sampled)) < 0) {
+			if (ret == -E2BIG)
+				fprintf(stderr, "relief bench lod: more than %u pairs to measure: fewer --taus, --targets or "
+				                "a smaller --every-frame\n", EVERY_FRAME_CAP);
+			else
+				fprintf(stderr, "relief bench lod: every frame of the flight: %s\n", strerror(-ret));
+			goto out;
+		}
+		frames = r.frames;
+	}
+	r.views = calloc(2 * (size_t)frames, sizeof(*r.views));
+	r.ref_err = malloc(sizeof(float) * 2 * frames * w * h);
+	r.ref_rgba = malloc((size_t)4 * 2 * frames * w * h);
+	r.ref_depth = malloc(sizeof(float) * 2 * frames * w * h);
+	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth) {
+		fprintf(stderr, "relief bench lod: out of memory\n");
+		goto out;
+	}
+	const struct relief_view start = bench_flight_view(f, w, h, 1, 0.0);
+	if (every)
+		for (uint32_t k = 0; k < frames; k++) {
+			r.views[2 * k] = bench_flight_frame_view(f, &start, flight_at[k]);
+			r.views[2 * k + 1] = bench_flight_frame_view(f, &start, flight_at[k] + 1);
+		}
+	else
+		flight(f, frames, w, h, r.views);
 	if (!json) {
 		const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 		printf("relief bench lod: %s, flight of %u key poses (%u frames, popping between frames %.1f m apart) "
 		       "at %ux%u on %s (%s), cache warm, GPU time from timestamps, %u runs\n", base, frames, 2 * frames,
-		       FLIGHT_SPEED / FRAME_RATE, w, h, r.gpu.vk->props.deviceName,
+		       BENCH_FLIGHT_SPEED / BENCH_FRAME_RATE, w, h, r.gpu.vk->props.deviceName,
 		       relief_vk_device_type_name(r.gpu.vk->props.deviceType), runs);
+		if (every)
+			printf("every frame: %u frames, %u pairs measured (every pair some method's drawn patches change in, "
+			       "and %u spread evenly); popping and cam_pop: means over the line's %u pairs; times, errors over the "
+			       "pairs measured\n",
+			       r.flight_pairs + 1, frames, every, r.flight_pairs);
 		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %9s %9s %10s %10s %10s %9s\n", "method", "tau/px",
 		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "max_3x", "mesh_max",
 		       "p99.9", "rms_err", "popping", "cam_pop", "excluded");
@@ -742,7 +857,7 @@ int bench_lod(int argc, char **argv)
 	/* Runs go round the configurations, so that a slow spell of the machine spreads over
 	 * all of them; errors are measured on the first run (they do not change). */
 	const size_t per_run = 2 * (size_t)frames;
-	struct result res[1 + 8 * 6] = { 0 };
+	struct result res[MAX_CONFIGS] = { 0 };
 	const size_t total = (size_t)n * runs * per_run;
 	double *ms = calloc(3 * total, sizeof(double));
 	if (!ms) {
@@ -787,6 +902,11 @@ int bench_lod(int argc, char **argv)
 				       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",
 				       res[i].max_err_3x, (unsigned long long)res[i].over_tau,
 				       (unsigned long long)res[i].unresolved, res[i].recheck_diff, res[i].recheck_rms);
+			if (r.flight_at)
+				printf(",\"flight_pairs\":%u,\"lod_change_pairs\":%u,\"sampled_pairs\":%u,\"popping_se_px\":%.5f,"
+				       "\"camera_popping_se_px\":%.5f,\"shade_popping_se\":%.5f",
+				       r.flight_pairs, res[i].every[0].events, res[i].every[0].sampled, finite_or(res[i].every[0].se),
+				       finite_or(res[i].every[1].se), finite_or(res[i].every[2].se));
 			if (res[i].pop_quads_measured)
 				printf(",\"popping_event_interiors\":%llu,\"popping_event_edges\":%llu,\"popping_event_coarse\":%llu",
 				       (unsigned long long)res[i].pop_quads.interiors, (unsigned long long)res[i].pop_quads.edges,
@@ -826,6 +946,10 @@ out:
 	free(r.ref_err);
 	free(r.ref_rgba);
 	free(r.ref_depth);
+	free(flight_at);
+	free(flight_sampled);
+	for (int i = 0; i < n; i++)
+		free(cfg[i].changed);
 	relief_file_close(f);
 	return status;
 }

@@ -81,6 +81,12 @@ struct relief_draw_options {
 	/* Store the frame's triangles in the view's mesh capture (relief_terrain_view_mesh_enable()
 	 * first; not with wire): -EINVAL otherwise. */
 	bool mesh;
+	/* Choose the level of detail (selection, draw records, factors, requests) and draw
+	 * nothing: `target` is not touched and may be NULL, the statistics count no triangles
+	 * or quads. For carrying a view's hysteresis along frames nobody looks at (`relief bench
+	 * lod --track`), and for views whose draw records someone else draws. Not with wire or
+	 * mesh (-EINVAL). */
+	bool lod_only;
 };
 
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then

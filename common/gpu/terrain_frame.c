@@ -32,6 +32,46 @@ static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v
 		vkCmdDrawIndirect(cmd, v->cmds.buffer, at, t->max_draws, 16);
 }
 
+/* The frame's draws, after its compute, into `target`: the shown list, and the clipped one
+ * with back faces kept where they are culled; the wireframe over both with opts->wire. */
+static void frame_draw(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd,
+                       struct relief_vk_target *target, const struct draw_pipelines *pipes,
+                       const struct relief_draw_options *opts, struct draw_push *dp, uint32_t mode, bool cpu_cull,
+                       bool gpu_cull)
+{
+	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
+	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &v->set[v->parity], 0, NULL);
+	if (v->stats_pool)
+		vkCmdBeginQuery(cmd, v->stats_pool, 0, 0);
+	/* With back faces culled, the quads the rasteriser may clip (the clipped list,
+	 * lod_factors.comp) are drawn with them kept: the facing of a clipped triangle may be
+	 * decided by other arithmetic than its coverage, and a sliver upper side called
+	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). */
+	const VkDeviceSize split = offsetof(struct counters, draw_split);
+	VkPipeline fill, cull; /* pipes->fill and cull, or the mesh capture's twins */
+	mesh_pipelines(pipes, opts->mesh, &fill, &cull);
+	for (int pass = 0; pass < (opts->wire && pipes->wire ? 2 : 1); pass++) {
+		if (pass == 1) { /* both lists: the clipped one is empty unless back faces are culled */
+			draw_records(t, v, cmd, pipes->wire, dp, mode | 1u, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, pipes->wire, dp, mode | 1u | MODE_CLIPPED_LIST, 1, split + 8);
+		} else if (gpu_cull) { /* one of the first two counts is 0 */
+			draw_records(t, v, cmd, cull, dp, mode, 0, split);
+			draw_records(t, v, cmd, fill, dp, mode, 0, split + 4);
+			draw_records(t, v, cmd, fill, dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+		} else if (cpu_cull) {
+			draw_records(t, v, cmd, cull, dp, mode, 0, offsetof(struct counters, draws));
+			draw_records(t, v, cmd, fill, dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+		} else
+			draw_records(t, v, cmd, fill, dp, mode, 0, offsetof(struct counters, draws));
+		if (v->stats_pool && pass == 0)
+			vkCmdEndQuery(cmd, v->stats_pool, 0);
+	}
+	relief_vk_target_end(target, cmd);
+	if (opts->mesh)
+		mesh_frame_end(cmd);
+}
+
 int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
                                struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts)
 {
@@ -46,14 +86,15 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	 * drawn from view; both give positions relative to lod's camera. */
 	const struct relief_view *lod = opts->lod_view ? opts->lod_view : view;
 	if (relief_view_check(view, &why) < 0 || relief_view_check(lod, &why) < 0 || lod->width != view->width ||
-	    lod->height != view->height || (opts->mesh && (!v->mesh_cap || wire)))
+	    lod->height != view->height || (opts->mesh && (!v->mesh_cap || wire)) ||
+	    (opts->lod_only ? wire || opts->mesh : !target))
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
 	const struct relief_file *f = t->file;
 	/* The pipelines this frame computes and draws with, made the first time a frame needs them. */
 	const struct lod_pipelines *lp;
 	int ret = terrain_lod_pipelines_create(t, opts->fine, view->morph, &lp);
-	if (ret == 0)
+	if (ret == 0 && !opts->lod_only)
 		ret = terrain_draw_pipelines_create(t, view->morph, wire, opts->mesh);
 	if (ret < 0)
 		return ret;
@@ -223,37 +264,9 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
 	relief_vk_timer_write(&v->timer, cmd, 2, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 
-	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
-	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &set, 0, NULL);
-	if (v->stats_pool)
-		vkCmdBeginQuery(cmd, v->stats_pool, 0, 0);
-	/* With back faces culled, the quads the rasteriser may clip (the clipped list,
-	 * lod_factors.comp) are drawn with them kept: the facing of a clipped triangle may be
-	 * decided by other arithmetic than its coverage, and a sliver upper side called
-	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). */
-	const VkDeviceSize split = offsetof(struct counters, draw_split);
-	VkPipeline fill, cull; /* pipes->fill and cull, or the mesh capture's twins */
-	mesh_pipelines(pipes, opts->mesh, &fill, &cull);
-	for (int pass = 0; pass < (wire && pipes->wire ? 2 : 1); pass++) {
-		if (pass == 1) { /* both lists: the clipped one is empty unless back faces are culled */
-			draw_records(t, v, cmd, pipes->wire, &dp, mode | 1u, 0, offsetof(struct counters, draws));
-			draw_records(t, v, cmd, pipes->wire, &dp, mode | 1u | MODE_CLIPPED_LIST, 1, split + 8);
-		} else if (gpu_cull) { /* one of the first two counts is 0 */
-			draw_records(t, v, cmd, cull, &dp, mode, 0, split);
-			draw_records(t, v, cmd, fill, &dp, mode, 0, split + 4);
-			draw_records(t, v, cmd, fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
-		} else if (cpu_cull) {
-			draw_records(t, v, cmd, cull, &dp, mode, 0, offsetof(struct counters, draws));
-			draw_records(t, v, cmd, fill, &dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
-		} else
-			draw_records(t, v, cmd, fill, &dp, mode, 0, offsetof(struct counters, draws));
-		if (v->stats_pool && pass == 0)
-			vkCmdEndQuery(cmd, v->stats_pool, 0);
-	}
-	relief_vk_target_end(target, cmd);
-	if (opts->mesh)
-		mesh_frame_end(cmd);
+	if (!opts->lod_only)
+		frame_draw(t, v, cmd, target, pipes, opts, &dp, mode, cpu_cull, gpu_cull);
+	v->drew = !opts->lod_only;
 	/* The counters and requests to where the CPU reads them. */
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
 	        VK_ACCESS_TRANSFER_READ_BIT);
@@ -305,7 +318,7 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	v->last_drawn = c->drawn < t->max_patches ? c->drawn : t->max_patches;
 	/* The statistics in the order of their bits: clipping invocations, control shader patches. */
 	uint64_t stats[2];
-	if (v->stats_pool) {
+	if (v->stats_pool && v->drew) {
 		const VkQueryResultFlags flags = VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT;
 		if ((ret = relief_vk_check(vk, vkGetQueryPoolResults(vk->device, v->stats_pool, 0, 1, sizeof(stats), stats,
 		                                                     sizeof(stats), flags),

@@ -210,6 +210,7 @@ struct relief_terrain_view {
 	 * its command buffer (VK_NULL_HANDLE: none), fence, and how back faces were culled */
 	VkCommandBuffer pending;
 	bool captured; /* pending is a capture's (relief_vk_capture_begin()), not this view's to free */
+	bool drew;     /* the last frame drew (not relief_draw_options.lod_only): its statistics query ran */
 	VkFence fence;
 	bool gpu_cull; /* the GPU decided whether back faces were culled (lod_commands.comp) */
 };

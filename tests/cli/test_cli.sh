@@ -414,6 +414,17 @@ else
 	echo "FAIL bench lod --morphed: $n records, triangles $(field relief triangles) and $(field relief-morphed triangles)"
 	fails=$((fails + 1))
 fi
+# --every-frame: popping over every frame of the flight's line (the crop: 380 frames), each
+# method's LOD chosen for all of them in turn; the pairs measured are the LOD-change pairs
+# of any method and 4 spread evenly. The full grid's LOD never changes (its popping is 0).
+vkcheck bench-lod-every-frame 0 "$relief" bench lod "$tmp/crop.relief" --every-frame 4 --runs 1 --size 64x36 --taus 1 \
+	--targets 4 --json
+n=$(grep -c '"flight_pairs":379,"lod_change_pairs":[0-9]*,"sampled_pairs":[1-4],"popping_se_px":' <<<"$LAST_OUT")
+[ "$n" -eq 4 ] || { echo "FAIL bench lod --every-frame: $n of 4 records with the line's pairs: $LAST_OUT"; fails=$((fails + 1)); }
+m=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | grep -c '"popping_px":0.00000,')
+[ "$m" -eq 1 ] || { echo "FAIL bench lod --every-frame: the full grid pops"; fails=$((fails + 1)); }
+check bench-lod-every-frame-and-frames 2 "$relief" bench lod "$tmp/crop.relief" --every-frame 4 --frames 2
+expect_text bench-lod-every-frame-and-frames-named "--frames and --every-frame exclude each other"
 # --recheck-all: every pixel measured again at three times the resolution with three times
 # tau. The same level of detail (no pixel unresolved: another triangle count would leave
 # them all so) and the same rays: the RMS change of a pixel's error is 0.0002-0.0013 px

@@ -179,7 +179,9 @@ static struct relief_view hysteresis_view(const double at[3], const double dir[3
  * B must differ from a fresh selection. Then C looks away
  * (the patch's ancestors leave the frustum, the selection does not visit it, its state
  * becomes "not split"), and D is B's pose again: it must equal a fresh selection. At
- * every frame the GPU's drawn patches equal the CPU's. */
+ * every frame the GPU's drawn patches equal the CPU's. A and C draw nothing
+ * (relief_draw_options.lod_only, no target, which they leave as it was): the hysteresis B
+ * and D start from is theirs. */
 static void test_hysteresis_matches_cpu(void **state)
 {
 	struct scene s;
@@ -207,10 +209,24 @@ static void test_hysteresis_matches_cpu(void **state)
 	const struct { double dist; bool away; int fresh; } frames[] = {
 		{ d, false, 1 }, { d * 1.1, false, 0 }, { d * 1.1, true, -1 }, { d * 1.1, false, 1 },
 	};
+	/* Frames A and C choose their LOD and draw nothing (lod_only, no target): the state
+	 * they leave is the one B and D start from. */
+	const size_t depth_bytes = sizeof(float) * s.target.width * s.target.height;
+	float *before = malloc(depth_bytes);
 	for (size_t k = 0; k < sizeof(frames) / sizeof(frames[0]); k++) {
 		v = hysteresis_view(at, dir, frames[k].dist, frames[k].away);
 		struct relief_terrain_stats st;
-		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 10 + k, NULL, &st), 0);
+		const struct relief_draw_options only = { .lod_only = true };
+		const bool drawn = k % 2 == 1;
+		memcpy(before, s.target.depth_readback.map, depth_bytes);
+		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, drawn ? &s.target : NULL, 10 + k,
+		                                     drawn ? NULL : &only, &st),
+		                 0);
+		if (!drawn) {
+			assert_int_equal(st.triangles, 0);
+			assert_memory_equal(s.target.depth_readback.map, before, depth_bytes);
+		} else if (gpu_test_has_statistics(s.ctx))
+			assert_true(st.triangles > 0);
 		uint32_t ng = view_drawn(s.view, gpu, n);
 		qsort(gpu, ng, 4, cmp_u32);
 		uint32_t nc = relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
@@ -227,6 +243,14 @@ static void test_hysteresis_matches_cpu(void **state)
 			assert_int_equal(same_as_fresh, frames[k].fresh);
 		memcpy(prev, next, n);
 	}
+	/* Nothing to draw into is refused unless nothing is drawn; lod_only draws no wireframe
+	 * and captures no mesh. */
+	const struct relief_draw_options wire_only = { .lod_only = true, .wire = true };
+	const struct relief_draw_options mesh_only = { .lod_only = true, .mesh = true };
+	assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, NULL, 20, NULL, NULL), -EINVAL);
+	assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 20, &wire_only, NULL), -EINVAL);
+	assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, 20, &mesh_only, NULL), -EINVAL);
+	free(before);
 	free(resident); free(prev); free(next); free(draw); free(fresh_next); free(fresh_draw); free(zero); free(last);
 	free(want); free(gpu);
 	scene_close(&s);
