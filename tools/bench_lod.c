@@ -63,12 +63,19 @@
  * a distant ridge, and a small change of the LOD moves it a lot (docs/benchmarks.md). So it
  * also counts those events: popping_events of popping_pairs pairs changed some pixel's
  * error by more than POP_EVENT_PX, popping_event_pixels pixels in all, popping_pixel_max_px
- * the largest change of one pixel. Where the device captures meshes, each event's two
+ * the largest change of one pixel. The full-resolution render's own such pixels (its level
+ * of detail never changes: the rasteriser drawing from the other camera's origin, up to
+ * 55 px at a silhouette on Mont Blanc) are left out of every other method's popping,
+ * counted as popping_excluded_pixels. Where the device captures meshes, each event's two
  * frames' quads are compared place by place (mesh_diff.h): popping_event_interiors,
  * popping_event_edges and popping_event_coarse count, over the events, the quads whose inner
  * factor changed, those whose outer factors alone did, and the places only one frame draws
  * (the coarse selection or the block culling changed there); --trace-events lists them
  * per event on stderr.
+ * --every-frame K: the pairs are those of every frame of the flight's line that some
+ * method's level change falls in and K spread evenly, and popping_px, camera_popping_px and
+ * shade_popping are each method's stratified means over all of the line's pairs
+ * (bench_flight.h), with popping_se_px and the others' standard errors.
  * shade_popping is the same comparison on the picture itself: the RMS over pixels showing
  * terrain in both of the colour difference (RGB distance / sqrt 3, in 8-bit steps)
  * between the two renders, averaged over the pairs; what a viewer sees change, lighting
@@ -124,6 +131,7 @@ struct result {
 	 * pixels that did in all of them, and the largest single pixel's change. */
 	uint32_t pop_events;
 	uint64_t pop_event_pixels;
+	uint64_t pop_excluded; /* pixel-pairs left out of popping as the full grid's own changes (run.pop_noise) */
 	double pop_pixel_max;
 	/* In those events' pairs, the quads whose factors or presence the change of LOD alone
 	 * changed (mesh_diff.h); pop_quads_measured false where not measured (no capture). */
@@ -175,6 +183,11 @@ struct run {
 	/* |error| in px per frame and pixel of the reference render (NaN: no terrain), or NULL
 	 * while the reference itself is measured */
 	float *ref_err;
+	/* per pair and pixel: the full-resolution render's own error changed there by more than
+	 * POP_EVENT_PX between the frozen and the own frame (its level of detail never changes:
+	 * the rasteriser, drawing from the other camera's origin); left out of every other
+	 * method's popping */
+	uint8_t *pop_noise;
 	/* the reference render's pictures and depths per frame (RGBA8, reversed Z), for
 	 * shade_err */
 	uint8_t *ref_rgba;
@@ -487,7 +500,16 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		uint64_t moved = 0; /* this frame's popping event: pixels changed, the largest change */
 		double most = 0;
 		if (i % 2 == 1) { /* the frame after a key pose: popping */
+			uint8_t *noise = r->pop_noise + (size_t)(i / 2) * W * H;
+			for (size_t k = 0; k < (size_t)W * H && !c->reference; k++)
+				if (noise[k]) {
+					res->pop_excluded += !isnan(frozen[k]) && !isnan(err[k]);
+					frozen[k] = NAN;
+					frozen_depth[k] = 0.0f;
+				}
 			double d = error_change(frozen, err, (size_t)W * H, &moved, &most);
+			for (size_t k = 0; k < (size_t)W * H && c->reference; k++)
+				noise[k] = fabs((double)frozen[k] - err[k]) > POP_EVENT_PX; /* false where either is NaN */
 			double dc = error_change(prev, err, (size_t)W * H, NULL, NULL);
 			double ds = colour_change(frozen_rgba, r->gpu.target.color_readback.map, frozen_depth,
 			                          r->gpu.target.depth_readback.map, (size_t)W * H);
@@ -597,12 +619,12 @@ static double finite_or(double x)
 #define EVERY_FRAME_CAP 500
 
 /* The pairs measured with --every-frame: each configuration's level of detail chosen for
- * every frame of the line in turn (bench_flight_events()), then every pair in which one of them
- * draws other patches and `sample` pairs spread evenly (bench_flight_choose()). Sets
- * r->frames to their count and r->flight_*; cfg[i].changed keeps configuration i's events.
- * -E2BIG when more than EVERY_FRAME_CAP pairs are needed. */
+ * every frame of the line in turn (bench_flight_events()), then every pair in which one of
+ * them draws other patches and `sample` pairs spread evenly (bench_flight_choose()). Sets
+ * r->frames to their count and r->flight_*; cfg[i].changed keeps configuration i's
+ * LOD-change pairs. -E2BIG when more than EVERY_FRAME_CAP pairs are needed. */
 static int every_frame_choose(struct run *r, struct config *cfg, int n, uint32_t sample, uint32_t w, uint32_t h,
-                        uint32_t *at, uint8_t *sampled)
+                              uint32_t *at, uint8_t *sampled)
 {
 	const uint32_t pairs = bench_flight_frames(r->f) - 1;
 	const struct relief_view pose = bench_flight_view(r->f, w, h, 1, 0.0);
@@ -827,7 +849,8 @@ int bench_lod(int argc, char **argv)
 	r.ref_err = malloc(sizeof(float) * 2 * frames * w * h);
 	r.ref_rgba = malloc((size_t)4 * 2 * frames * w * h);
 	r.ref_depth = malloc(sizeof(float) * 2 * frames * w * h);
-	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth) {
+	r.pop_noise = calloc((size_t)frames * w * h, 1);
+	if (!r.views || !r.ref_err || !r.ref_rgba || !r.ref_depth || !r.pop_noise) {
 		fprintf(stderr, "relief bench lod: out of memory\n");
 		goto out;
 	}
@@ -887,14 +910,14 @@ int bench_lod(int argc, char **argv)
 			       "\"patches\":%.1f,\"max_err_px\":%.4f,\"p999_err_px\":%.2f,\"rms_err_px\":%.4f,\"popping_px\":%.5f,"
 			       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
 			       "\"popping_pairs\":%u,\"popping_events\":%u,\"popping_event_pixels\":%llu,"
-			       "\"popping_pixel_max_px\":%.4f,"
+			       "\"popping_pixel_max_px\":%.4f,\"popping_excluded_pixels\":%llu,"
 			       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
 			       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u,\"face_culled_frames\":%u",
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].quads, res[i].patches, res[i].max_err, res[i].p999_err, res[i].rms_err,
 			       res[i].popping, res[i].camera_popping, res[i].popping_median, res[i].popping_max, frames,
 			       res[i].pop_events, (unsigned long long)res[i].pop_event_pixels, res[i].pop_pixel_max,
-			       res[i].shade_popping, res[i].shade_err,
+			       (unsigned long long)res[i].pop_excluded, res[i].shade_popping, res[i].shade_err,
 			       (unsigned long long)res[i].pixels,
 			       (unsigned long long)res[i].excluded, per_run, runs, w, h, res[i].face_culled);
 			if (res[i].max_err_3x >= 0)
@@ -946,6 +969,7 @@ out:
 	free(r.ref_err);
 	free(r.ref_rgba);
 	free(r.ref_depth);
+	free(r.pop_noise);
 	free(flight_at);
 	free(flight_sampled);
 	for (int i = 0; i < n; i++)

@@ -373,6 +373,10 @@ m=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | grep -c '"popping_events":0,"po
 # Each event's quads compared (lavapipe has the capture): the full grid has none to count.
 m=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | grep -c '"popping_event_interiors":0,"popping_event_edges":0,"popping_event_coarse":0')
 [ "$m" -eq 1 ] || { echo "FAIL bench lod popping event quads of the full grid"; fails=$((fails + 1)); }
+# The full grid's own changed pixels are left out of the others' popping: never more than it has.
+fg=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | sed -n 's/.*"popping_event_pixels":\([0-9]*\).*/\1/p')
+m=$(sed -n 's/.*"popping_excluded_pixels":\([0-9]*\).*/\1/p' <<<"$LAST_OUT" | awk -v fg="${fg:--1}" '$1 <= fg + 0' | wc -l)
+[ "$m" -eq 4 ] || { echo "FAIL bench lod popping_excluded_pixels over the full grid's $fg: $m of 4 within"; fails=$((fails + 1)); }
 expect_text bench-lod-runs '"frames":4,"runs":2,'
 expect_text bench-lod-face-cull '"face_culled_frames":4' # the flight is above the terrain
 expect_text bench-lod-cpu '","cpu":"'
