@@ -84,8 +84,8 @@ struct relief_draw_options {
 	/* Choose the level of detail (selection, draw records, factors, requests) and draw
 	 * nothing: `target` is not touched and may be NULL, the statistics count no triangles
 	 * or quads. For carrying a view's hysteresis along frames nobody looks at (`relief bench
-	 * lod --track`), and for views whose draw records someone else draws. Not with wire or
-	 * mesh (-EINVAL). */
+	 * lod --every-frame`), and for views whose draw records someone else draws. Not with
+	 * wire or mesh (-EINVAL). */
 	bool lod_only;
 };
 
