@@ -409,9 +409,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	float *err = malloc(sizeof(float) * W * H), *prev = malloc(sizeof(float) * W * H);
 	float *frozen = malloc(sizeof(float) * W * H), *frozen_depth = malloc(sizeof(float) * W * H);
 	uint8_t *frozen_rgba = malloc((size_t)4 * W * H);
-	double *pops = malloc(sizeof(double) * (r->frames ? r->frames : 1)); /* per pair measured */
-	/* per pair, NaN where not measured: popping, camera and shade popping (for --every-frame) */
-	double *pair = malloc(sizeof(double) * 3 * r->frames);
+	/* per pair, NaN where not measured (no terrain in view): popping, camera and shade popping */
+	double *pair = malloc(sizeof(double) * 3 * (r->frames ? r->frames : 1));
 	for (uint32_t k = 0; pair && k < 3 * r->frames; k++)
 		pair[k] = NAN;
 	/* Methods that bound their error by tau get their pixels over it rechecked. */
@@ -423,14 +422,14 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 		.over_px = malloc(sizeof(float) * W * H),
 	};
 	struct relief_terrain_view *tv = NULL;
-	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pops && pair && a.hist && a.over && a.over_px
+	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pair && a.hist && a.over && a.over_px
 	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
 	if (ret == 0 && analyse && r->mesh)
 		ret = relief_terrain_view_mesh_enable(tv, MESH_CAP);
 	if (analyse && !r->mesh)
 		mesh_unmeasured(res);
-	double tri = 0, quads = 0, patches = 0, pop = 0, camera_pop = 0, shade_pop = 0, shade_sum = 0;
+	double tri = 0, quads = 0, patches = 0, shade_sum = 0;
 	uint32_t shade_frames = 0;
 	/* With a mesh capture, the frozen frame's quads, compared with the own frame's in each
 	 * popping event (the frozen frame is drawn through the capture's pipelines, which draw
@@ -439,7 +438,6 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	bool frozen_captured = false;
 	if (analyse)
 		res->pop_quads_measured = r->mesh != NULL;
-	uint32_t pairs = 0;
 	for (uint32_t i = 0; i < n && ret == 0; i++) {
 		struct relief_view view = config_view(c, &r->views[i]), *v = &view;
 		struct relief_terrain_stats st;
@@ -514,10 +512,6 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			double ds = colour_change(frozen_rgba, r->gpu.target.color_readback.map, frozen_depth,
 			                          r->gpu.target.depth_readback.map, (size_t)W * H);
 			if (d >= 0 && dc >= 0 && ds >= 0) {
-				pop += d;
-				camera_pop += dc;
-				shade_pop += ds;
-				pops[pairs++] = d;
 				pair[i / 2] = d;
 				pair[r->frames + i / 2] = dc;
 				pair[2 * r->frames + i / 2] = ds;
@@ -566,14 +560,22 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			}
 		}
 		res->rms_err = res->pixels ? sqrt(a.sum2 / res->pixels) : 0;
-		res->popping = pairs ? pop / pairs : 0;
-		res->camera_popping = pairs ? camera_pop / pairs : 0;
-		res->shade_popping = pairs ? shade_pop / pairs : 0;
 		res->shade_err = shade_frames ? sqrt(shade_sum / shade_frames) : 0;
+		/* The means over the pairs measured; popping, camera and shade popping are NaN
+		 * together where a pair was not. */
+		double sum[3] = { 0, 0, 0 };
+		uint32_t pairs = 0;
 		res->popping_max = 0;
-		for (uint32_t k = 0; k < pairs; k++)
-			res->popping_max = fmax(res->popping_max, pops[k]);
-		res->popping_median = pairs ? bench_median(pops, pairs) : 0;
+		for (uint32_t k = 0; k < r->frames; k++)
+			if (!isnan(pair[k])) {
+				for (int q = 0; q < 3; q++)
+					sum[q] += pair[(size_t)q * r->frames + k];
+				res->popping_max = fmax(res->popping_max, pair[k]);
+				pairs++;
+			}
+		res->popping = pairs ? sum[0] / pairs : 0;
+		res->camera_popping = pairs ? sum[1] / pairs : 0;
+		res->shade_popping = pairs ? sum[2] / pairs : 0;
 		if (r->flight_at) { /* over every pair of the line (bench_flight.h) */
 			for (int q = 0; q < 3; q++)
 				res->every[q] = bench_flight_mean(r->flight_pairs, c->changed, r->flight_at, r->flight_sampled,
@@ -582,6 +584,11 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			res->camera_popping = res->every[1].mean;
 			res->shade_popping = res->every[2].mean;
 		}
+		uint32_t m = 0; /* the pairs measured, first, for the median (which sorts them) */
+		for (uint32_t k = 0; k < r->frames; k++)
+			if (!isnan(pair[k]))
+				pair[m++] = pair[k];
+		res->popping_median = m ? bench_median(pair, m) : 0;
 	}
 	mesh_quads_finish(&frozen_quads);
 	mesh_quads_finish(&own_quads);
@@ -594,7 +601,6 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	free(frozen);
 	free(frozen_depth);
 	free(frozen_rgba);
-	free(pops);
 	free(pair);
 	return ret;
 }
