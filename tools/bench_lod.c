@@ -125,6 +125,8 @@ struct config {
 
 struct result {
 	double ms_median, ms_p95, select_ms, lod_ms, triangles, quads, patches, max_err, p999_err, rms_err, popping;
+	/* --passes: the median of each LOD pass and of their sum over the run with pass timing */
+	double pass_ms[RELIEF_LOD_PASSES], profiled_lod_ms;
 	double camera_popping;
 	double popping_median, popping_max; /* over the pairs: the mean above is made by a few */
 	/* The pairs in which some pixel's error changed by more than POP_EVENT_PX (events), the
@@ -402,7 +404,14 @@ static struct relief_view config_view(const struct config *c, const struct relie
 
 /* Renders the flight once with configuration c; GPU and selection times of its frames go
  * to ms[], sel[] and lod[] (2 x frames each). With `analyse`, also the errors and popping. */
-static int measure(struct run *r, const struct config *c, bool analyse, double *ms, double *sel, double *lod,
+/* Per frame of one run (2 x run.frames): GPU ms, the LOD compute's and the selection's
+ * part of it, and with `pass` non-NULL, the frames drawn with pass timing, each LOD pass
+ * (RELIEF_LOD_PASSES per frame). */
+struct frame_times {
+	double *ms, *sel, *lod, *pass;
+};
+
+static int measure(struct run *r, const struct config *c, bool analyse, const struct frame_times *t,
                    struct result *res)
 {
 	const uint32_t W = r->gpu.target.width, H = r->gpu.target.height, n = 2 * r->frames;
@@ -468,11 +477,15 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			memcpy(frozen_depth, r->gpu.target.depth_readback.map, sizeof(float) * W * H);
 			memcpy(frozen_rgba, r->gpu.target.color_readback.map, (size_t)4 * W * H);
 		}
-		if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &c->opts, &st)) < 0)
+		struct relief_draw_options timed = c->opts;
+		timed.pass_timing = t->pass != NULL;
+		if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &timed, &st)) < 0)
 			break;
-		ms[i] = st.gpu_ns / 1e6;
-		sel[i] = st.select_ns / 1e6;
-		lod[i] = st.lod_ns / 1e6;
+		t->ms[i] = st.gpu_ns / 1e6;
+		t->sel[i] = st.select_ns / 1e6;
+		t->lod[i] = st.lod_ns / 1e6;
+		for (int p = 0; t->pass && p < RELIEF_LOD_PASSES; p++)
+			t->pass[(size_t)i * RELIEF_LOD_PASSES + p] = st.pass_ns[p] / 1e6;
 		tri += (double)st.triangles;
 		quads += (double)st.quads;
 		patches += st.patches;
@@ -537,9 +550,9 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 			if (frozen_captured && own_captured)
 				mesh_quads_compare(&frozen_quads, &own_quads, r->trace_events ? stderr : NULL, &res->pop_quads);
 		}
-		float *t = prev;
+		float *swap = prev;
 		prev = err;
-		err = t;
+		err = swap;
 	}
 	if (ret == 0) {
 		res->triangles = tri / n;
@@ -602,6 +615,31 @@ static int measure(struct run *r, const struct config *c, bool analyse, double *
 	free(frozen_depth);
 	free(frozen_rgba);
 	free(pair);
+	return ret;
+}
+
+/* --passes: one more run of each configuration, its timed frames drawn with a timestamp
+ * after each LOD pass; the medians of each pass and of the LOD compute they make up. */
+static int measure_passes(struct run *r, const struct config *cfg, int n, struct result *res)
+{
+	const size_t frames = 2 * (size_t)r->frames;
+	double *ms = malloc(sizeof(double) * frames * (3 + RELIEF_LOD_PASSES)), *one = malloc(sizeof(double) * frames);
+	int ret = ms && one ? 0 : -ENOMEM;
+	const struct frame_times t = { ms, ms + frames, ms + 2 * frames, ms + 3 * frames };
+	for (int i = 0; i < n && ret == 0; i++) {
+		if ((ret = measure(r, &cfg[i], false, &t, &res[i])) < 0) {
+			fprintf(stderr, "relief bench lod: %s with pass timing: %s\n", cfg[i].method, strerror(-ret));
+			break;
+		}
+		res[i].profiled_lod_ms = bench_median(t.lod, frames);
+		for (int p = 0; p < RELIEF_LOD_PASSES; p++) {
+			for (size_t k = 0; k < frames; k++)
+				one[k] = t.pass[k * RELIEF_LOD_PASSES + p];
+			res[i].pass_ms[p] = bench_median(one, frames);
+		}
+	}
+	free(ms);
+	free(one);
 	return ret;
 }
 
@@ -668,10 +706,12 @@ int bench_lod(int argc, char **argv)
 		{ "runs", required_argument, NULL, 'r' }, { "unculled", no_argument, NULL, 'U' },
 		{ "morphed", no_argument, NULL, 'M' }, { "recheck-all", no_argument, NULL, 'A' },
 		{ "loose", no_argument, NULL, 'L' },  { "trace-events", no_argument, NULL, 'E' },
-		{ "every-frame", required_argument, NULL, 'K' }, { "help", no_argument, NULL, 'h' },
+		{ "every-frame", required_argument, NULL, 'K' }, { "passes", no_argument, NULL, 'S' },
+		{ "help", no_argument, NULL, 'h' },
 		{ 0 },
 	};
 	bool json = false, unculled = false, morphed = false, recheck_all = false, loose = false, trace = false;
+	bool passes = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3, every = 0;
 	bool frames_given = false;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
@@ -711,10 +751,12 @@ int bench_lod(int argc, char **argv)
 		case 'L': loose = true; break;
 		case 'A': recheck_all = true; break;
 		case 'E': trace = true; break;
+		case 'S': passes = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
 			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--morphed]\n"
-			       "                        [--loose] [--recheck-all] [--trace-events] [--device DEV]\n"
+			       "                        [--loose] [--recheck-all] [--trace-events] [--passes]\n"
+			       "                        [--every-frame K] [--device DEV]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -743,7 +785,10 @@ int bench_lod(int argc, char **argv)
 			       "each method's LOD is chosen for all of them in turn, and the pairs in which some\n"
 			       "method's drawn patches change are measured with K more spread evenly; popping is then\n"
 			       "each method's mean over all the line's pairs, its events counted once, the rest by the\n"
-			       "sample (JSON popping_se_px: that part's standard error). Not with --frames.\n");
+			       "sample (JSON popping_se_px: that part's standard error). Not with --frames.\n"
+			       "--passes: one more run of each configuration with a timestamp after each LOD pass\n"
+			       "(not in the times above: on a CPU device each timestamp costs time of its own): the\n"
+			       "median of each pass (setup, select, records, borders, factors, lists) and of their sum.\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -894,15 +939,20 @@ int bench_lod(int argc, char **argv)
 		goto out;
 	}
 	double *sel = ms + total, *lod = sel + total;
-	for (uint32_t run = 0; run < runs; run++)
-		for (int i = 0; i < n; i++) {
+	ret = 0;
+	for (uint32_t run = 0; run < runs && ret == 0; run++)
+		for (int i = 0; i < n && ret == 0; i++) {
 			size_t at = ((size_t)i * runs + run) * per_run;
-			if ((ret = measure(&r, &cfg[i], run == 0, ms + at, sel + at, lod + at, &res[i])) < 0) {
+			const struct frame_times t = { ms + at, sel + at, lod + at, NULL };
+			if ((ret = measure(&r, &cfg[i], run == 0, &t, &res[i])) < 0)
 				fprintf(stderr, "relief bench lod: %s: %s\n", cfg[i].method, strerror(-ret));
-				free(ms);
-				goto out;
-			}
 		}
+	if (ret == 0 && passes)
+		ret = measure_passes(&r, cfg, n, res);
+	if (ret < 0) {
+		free(ms);
+		goto out;
+	}
 	for (int i = 0; i < n; i++) {
 		size_t at = (size_t)i * runs * per_run, count = runs * per_run;
 		double *m = ms + at;
@@ -936,6 +986,12 @@ int bench_lod(int argc, char **argv)
 				       "\"camera_popping_se_px\":%.5f,\"shade_popping_se\":%.5f",
 				       r.flight_pairs, res[i].every[0].events, res[i].every[0].sampled, finite_or(res[i].every[0].se),
 				       finite_or(res[i].every[1].se), finite_or(res[i].every[2].se));
+			if (passes) {
+				printf(",\"lod_profiled_ms_median\":%.4f,\"lod_pass_ms\":{", res[i].profiled_lod_ms);
+				for (int p = 0; p < RELIEF_LOD_PASSES; p++)
+					printf("%s\"%s\":%.4f", p ? "," : "", relief_lod_pass_name(p), res[i].pass_ms[p]);
+				printf("}");
+			}
 			if (res[i].pop_quads_measured)
 				printf(",\"popping_event_interiors\":%llu,\"popping_event_edges\":%llu,\"popping_event_coarse\":%llu",
 				       (unsigned long long)res[i].pop_quads.interiors, (unsigned long long)res[i].pop_quads.edges,
@@ -960,6 +1016,19 @@ int bench_lod(int argc, char **argv)
 			       cfg[i].method, cfg[i].param, res[i].ms_median, res[i].ms_p95, res[i].lod_ms, res[i].select_ms,
 			       res[i].triangles, res[i].patches, res[i].max_err, m3, mm, res[i].p999_err, res[i].rms_err,
 			       res[i].popping, res[i].camera_popping, (unsigned long long)res[i].excluded);
+		}
+	}
+	if (passes && !json) {
+		printf("\nLOD passes, medians in ms (one more run with a timestamp after each pass; profiled: their sum)\n"
+		       "%-16s %7s", "method", "tau/px");
+		for (int p = 0; p < RELIEF_LOD_PASSES; p++)
+			printf(" %8s", relief_lod_pass_name(p));
+		printf(" %9s %8s\n", "profiled", "lod_ms");
+		for (int i = 0; i < n; i++) {
+			printf("%-16s %7g", cfg[i].method, cfg[i].param);
+			for (int p = 0; p < RELIEF_LOD_PASSES; p++)
+				printf(" %8.3f", res[i].pass_ms[p]);
+			printf(" %9.3f %8.3f\n", res[i].profiled_lod_ms, res[i].lod_ms);
 		}
 	}
 	free(ms);

@@ -21,6 +21,23 @@
 struct relief_terrain;
 struct relief_terrain_view;
 
+/* The passes of a frame's LOD compute, in order (docs/lod.md, "Where the LOD compute's time
+ * goes"): the buffers cleared and the camera uploaded; the coarse selection (forced splits,
+ * one pass per level); the draw records; the patch borders' factors and seals; every quad's
+ * factors; the lists of quads that draw something with their draw records. */
+enum relief_lod_pass {
+	RELIEF_LOD_PASS_SETUP,
+	RELIEF_LOD_PASS_SELECT,
+	RELIEF_LOD_PASS_RECORDS,
+	RELIEF_LOD_PASS_BORDERS,
+	RELIEF_LOD_PASS_FACTORS,
+	RELIEF_LOD_PASS_LISTS,
+	RELIEF_LOD_PASSES
+};
+
+/* The passes' names as `relief bench lod` prints them ("setup", "select", ...). */
+const char *relief_lod_pass_name(enum relief_lod_pass pass);
+
 struct relief_terrain_stats {
 	uint32_t patches;       /* drawn */
 	uint32_t draws;         /* indirect draw records */
@@ -32,6 +49,10 @@ struct relief_terrain_stats {
 	uint64_t gpu_ns;        /* whole frame (LOD compute, draw, copy-out) */
 	uint64_t select_ns;     /* coarse LOD compute: patch selection and draw records */
 	uint64_t lod_ns;        /* all LOD compute: select_ns plus the tessellation-factor pass */
+	/* With relief_draw_options.pass_timing, lod_ns split by pass (else all 0): consecutive
+	 * intervals between timestamps, so they add up to lod_ns, and the first three to
+	 * select_ns (to within a nanosecond of rounding each). */
+	uint64_t pass_ns[RELIEF_LOD_PASSES];
 	bool face_culled;       /* back faces were culled: the camera is above the surface */
 	/* The height the GPU compared the eye with (lod_commands.comp): the highest block drawn
 	 * around it, as relief_drawn_height_bound(); NaN when no drawn block holds the eye or
@@ -87,6 +108,10 @@ struct relief_draw_options {
 	 * lod --every-frame`), and for views whose draw records someone else draws. Not with
 	 * wire or mesh (-EINVAL). */
 	bool lod_only;
+	/* Time each LOD pass (relief_terrain_stats.pass_ns): a timestamp after each, which costs
+	 * a CPU implementation some time of its own (lavapipe finishes the work before each), so
+	 * the frames whose times count are drawn without it (`relief bench lod --passes`). */
+	bool pass_timing;
 };
 
 /* Selects and draws one frame of `view` into `target` (cleared first), waits for it, then

@@ -72,6 +72,21 @@ static void frame_draw(struct relief_terrain *t, struct relief_terrain_view *v, 
 		mesh_frame_end(cmd);
 }
 
+const char *relief_lod_pass_name(enum relief_lod_pass pass)
+{
+	static const char *const names[RELIEF_LOD_PASSES] = { "setup", "select", "records", "borders", "factors", "lists" };
+	return (unsigned)pass < RELIEF_LOD_PASSES ? names[pass] : "unknown";
+}
+
+/* The end of LOD pass `pass` (before the selection, the borders and the lists: those
+ * end at the frame's own slots 1 and 2) when the frame times its passes. */
+static void pass_end(struct relief_terrain_view *v, VkCommandBuffer cmd, enum relief_lod_pass pass)
+{
+	if (v->pass_timed)
+		relief_vk_timer_write(&v->timer, cmd, FIRST_PASS_SLOT + (pass < RELIEF_LOD_PASS_RECORDS ? pass : pass - 1),
+		                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+}
+
 int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
                                struct relief_vk_target *target, uint64_t frame, const struct relief_draw_options *opts)
 {
@@ -163,6 +178,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		return ret;
 	relief_vk_timer_reset(&v->timer, cmd);
 	relief_vk_timer_write(&v->timer, cmd, 0, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT);
+	v->pass_timed = opts->pass_timing;
 	if (v->stats_pool)
 		vkCmdResetQueryPool(cmd, v->stats_pool, 0, 1);
 	/* What this frame's transfers and compute write is written before it only by compute
@@ -204,6 +220,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TESSELLATION_EVALUATION_SHADER_BIT |
 	                VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
 	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+	pass_end(v, cmd, RELIEF_LOD_PASS_SETUP);
 	VkDescriptorSet set = v->set[v->parity];
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
@@ -226,6 +243,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
 		        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 	}
+	pass_end(v, cmd, RELIEF_LOD_PASS_SELECT);
 	/* Different push ranges make the layouts incompatible for the set: bind it again. */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
@@ -247,12 +265,14 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, border_groups));
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT);
+	pass_end(v, cmd, RELIEF_LOD_PASS_BORDERS);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lp->factors);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
 	/* The lists of quads that draw something, and their draw records (lod_commands.comp,
 	 * phase 1): the draws run no shader for the others. */
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT);
+	pass_end(v, cmd, RELIEF_LOD_PASS_FACTORS);
 	cp.phase = 1;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
@@ -338,6 +358,19 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 		s.gpu_ns = relief_vk_ticks_elapsed_ns(vk, stamp[0], stamp[3]);
 		v->start_ticks = stamp[0];
 		v->end_ticks = stamp[3];
+	}
+	if (v->timed && v->pass_timed) {
+		/* The passes' ends in order (pass_end()): setup, select, records (slot 1), borders,
+		 * factors, lists (slot 2). */
+		uint64_t end[RELIEF_LOD_PASSES + 1] = { stamp[0] };
+		const uint32_t slot[RELIEF_LOD_PASSES] = { FIRST_PASS_SLOT, FIRST_PASS_SLOT + 1, 1,
+		                                           FIRST_PASS_SLOT + 2, FIRST_PASS_SLOT + 3, 2 };
+		for (uint32_t i = 0; i < RELIEF_LOD_PASSES && ret == 0; i++)
+			ret = relief_vk_timer_ticks(vk, &v->timer, slot[i], &end[i + 1]);
+		for (uint32_t i = 0; i < RELIEF_LOD_PASSES && ret == 0; i++)
+			s.pass_ns[i] = relief_vk_ticks_elapsed_ns(vk, end[i], end[i + 1]);
+		if (ret < 0)
+			return ret;
 	}
 	/* Requests, made in id order: coarser patches first (lower ids are coarser), so that a
 	 * parent is on its way before its child is asked for and a whole chain is accepted in

@@ -17,6 +17,10 @@ struct want {
 };
 /* Tessellated vertices of one quad patch at most: factor 16 everywhere, (16 + 1)^2. */
 #define MAX_VERTICES_PER_QUAD 289u
+/* A view's timestamp slots: the frame's four, then one after each of the first LOD passes
+ * when they are timed (relief_draw_options.pass_timing; struct relief_terrain_view.timer). */
+#define FIRST_PASS_SLOT 4u
+#define TIMER_SLOTS (FIRST_PASS_SLOT + RELIEF_LOD_PASSES - 2u)
 /* Metres a camera must be above relief_surface_height_bound() for back faces to be culled:
  * drawn heights are floats of at most ~10 km, rounded to ~1 mm. */
 #define FACE_CULL_MARGIN 0.01
@@ -201,7 +205,11 @@ struct relief_terrain_view {
 	uint32_t last_drawn;
 	/* Per view, so that several views' frames can be in flight at once */
 	VkQueryPool stats_pool;
-	struct relief_vk_timer timer; /* 0 frame start, 1 selection and records done, 2 factors done, 3 frame done */
+	/* 0 frame start, 1 selection and records done, 2 factors and lists done, 3 frame done;
+	 * with relief_draw_options.pass_timing also 4 setup done, 5 selection done, 6 borders
+	 * done, 7 factors done (from FIRST_PASS_SLOT) */
+	struct relief_vk_timer timer;
+	bool pass_timed; /* the frame in flight or last waited for wrote slots 4-7 */
 	/* The last frame waited for: whether its timestamps were read, and its start and end
 	 * (raw, relief_terrain_views_span_ns()) */
 	bool timed;

@@ -102,7 +102,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	                                        VK_QUERY_PIPELINE_STATISTIC_CLIPPING_INVOCATIONS_BIT |
 	                                                VK_QUERY_PIPELINE_STATISTIC_TESSELLATION_CONTROL_SHADER_PATCHES_BIT,
 	                                        1, &v->stats_pool)) < 0) ||
-	    ((ret = relief_vk_timer_init(vk, &v->timer, 4)) < 0 && ret != -ENOTSUP) ||
+	    ((ret = relief_vk_timer_init(vk, &v->timer, TIMER_SLOTS)) < 0 && ret != -ENOTSUP) ||
 	    (ret = relief_vk_check(vk, vkCreateFence(vk->device, &fi, NULL, &v->fence), "vkCreateFence")) < 0)
 		goto fail;
 	/* Hysteresis starts with nothing split. */

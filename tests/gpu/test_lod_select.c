@@ -975,6 +975,51 @@ static void test_frozen_lod(void **state)
 	bound_close(&b);
 }
 
+/* With pass_timing, the LOD compute's time comes split by pass: intervals between
+ * consecutive timestamps, so they add up to lod_ns, the first three to select_ns (each
+ * rounded to a nanosecond on its own); every pass has work in a frame over Puget Sound.
+ * The timestamps change nothing drawn; without them the split is 0. */
+static void test_pass_timing(void **state)
+{
+	if (!vk->timestamp_valid_bits)
+		skip();
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, BW, BH);
+	load_everything(&s);
+	struct relief_view v = pose_view(&three_views[0]);
+	float *depth[2] = { malloc(sizeof(float) * BW * BH), malloc(sizeof(float) * BW * BH) };
+	uint8_t *colour = malloc((size_t)4 * BW * BH);
+	struct relief_terrain_stats st[2];
+	const struct relief_draw_options timed = { .pass_timing = true };
+	render_with(&s, &v, &timed, depth[1], &st[1]);
+	memcpy(colour, s.target.color_readback.map, (size_t)4 * BW * BH);
+	render(&s, &v, depth[0], &st[0]);
+	assert_memory_equal(depth[1], depth[0], sizeof(float) * BW * BH);
+	assert_memory_equal(colour, s.target.color_readback.map, (size_t)4 * BW * BH);
+	uint64_t sum = 0, select = 0;
+	for (int i = 0; i < RELIEF_LOD_PASSES; i++) {
+		print_message("%-8s %.3f ms\n", relief_lod_pass_name(i), st[1].pass_ns[i] / 1e6);
+		assert_true(st[1].pass_ns[i] > 0);
+		assert_int_equal(st[0].pass_ns[i], 0);
+		sum += st[1].pass_ns[i];
+		if (i <= RELIEF_LOD_PASS_RECORDS)
+			select += st[1].pass_ns[i];
+	}
+	print_message("LOD compute %.3f ms, of which selection and records %.3f ms\n", st[1].lod_ns / 1e6,
+	              st[1].select_ns / 1e6);
+	assert_true(sum <= st[1].lod_ns + RELIEF_LOD_PASSES && sum + RELIEF_LOD_PASSES >= st[1].lod_ns);
+	assert_true(select <= st[1].select_ns + 3 && select + 3 >= st[1].select_ns);
+	/* A frame that chooses its LOD only is timed the same way. */
+	const struct relief_draw_options lod_only = { .pass_timing = true, .lod_only = true };
+	assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, NULL, 200, &lod_only, &st[1]), 0);
+	assert_true(st[1].pass_ns[RELIEF_LOD_PASS_FACTORS] > 0);
+	assert_string_equal(relief_lod_pass_name(RELIEF_LOD_PASSES), "unknown");
+	free(depth[0]);
+	free(depth[1]);
+	free(colour);
+	scene_close(&s);
+}
+
 /* A view's buffers share two device memory allocations (device-local and host-visible), so
  * that a daemon keeping a view per client channel stays far below the 4,096 allocations a
  * device may allow; they used to take twelve. Its frames are unchanged (every LOD test
@@ -1059,6 +1104,7 @@ int main(void)
 		cmocka_unit_test(test_frozen_lod),
 		cmocka_unit_test(test_views_in_flight),
 		cmocka_unit_test(test_frames_captured),
+		cmocka_unit_test(test_pass_timing),
 		cmocka_unit_test(test_view_allocations),
 		cmocka_unit_test(test_device_limits_named),
 	};
