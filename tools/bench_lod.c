@@ -402,15 +402,15 @@ static struct relief_view config_view(const struct config *c, const struct relie
 	return v;
 }
 
-/* Renders the flight once with configuration c; GPU and selection times of its frames go
- * to ms[], sel[] and lod[] (2 x frames each). With `analyse`, also the errors and popping. */
 /* Per frame of one run (2 x run.frames): GPU ms, the LOD compute's and the selection's
- * part of it, and with `pass` non-NULL, the frames drawn with pass timing, each LOD pass
- * (RELIEF_LOD_PASSES per frame). */
+ * part of it, and with `pass` non-NULL (the frames then drawn with pass timing) each LOD
+ * pass's (RELIEF_LOD_PASSES per frame). */
 struct frame_times {
 	double *ms, *sel, *lod, *pass;
 };
 
+/* Renders the flight once with configuration c; the times of its timed frames go to *t.
+ * With `analyse`, also the errors and popping. */
 static int measure(struct run *r, const struct config *c, bool analyse, const struct frame_times *t,
                    struct result *res)
 {
