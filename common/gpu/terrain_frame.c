@@ -78,13 +78,21 @@ const char *relief_lod_pass_name(enum relief_lod_pass pass)
 	return (unsigned)pass < RELIEF_LOD_PASSES ? names[pass] : "unknown";
 }
 
-/* The end of LOD pass `pass` (before the selection, the borders and the lists: those
- * end at the frame's own slots 1 and 2) when the frame times its passes. */
+/* The timestamp slot at which LOD pass `pass` ends: the records and the lists end at the
+ * frame's own slots 1 and 2, the others at slots of their own from FIRST_PASS_SLOT. */
+static uint32_t pass_slot(enum relief_lod_pass pass)
+{
+	static const uint32_t slot[RELIEF_LOD_PASSES] = { FIRST_PASS_SLOT, FIRST_PASS_SLOT + 1, 1,
+	                                                  FIRST_PASS_SLOT + 2, FIRST_PASS_SLOT + 3, 2 };
+	return slot[pass];
+}
+
+/* The end of LOD pass `pass` (not the records or the lists: the frame writes their slots
+ * anyway) when the frame times its passes. */
 static void pass_end(struct relief_terrain_view *v, VkCommandBuffer cmd, enum relief_lod_pass pass)
 {
 	if (v->pass_timed)
-		relief_vk_timer_write(&v->timer, cmd, FIRST_PASS_SLOT + (pass < RELIEF_LOD_PASS_RECORDS ? pass : pass - 1),
-		                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
+		relief_vk_timer_write(&v->timer, cmd, pass_slot(pass), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 }
 
 int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_view *v, const struct relief_view *view,
@@ -360,13 +368,10 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 		v->end_ticks = stamp[3];
 	}
 	if (v->timed && v->pass_timed) {
-		/* The passes' ends in order (pass_end()): setup, select, records (slot 1), borders,
-		 * factors, lists (slot 2). */
+		/* The passes' ends in order; the first starts with the frame. */
 		uint64_t end[RELIEF_LOD_PASSES + 1] = { stamp[0] };
-		const uint32_t slot[RELIEF_LOD_PASSES] = { FIRST_PASS_SLOT, FIRST_PASS_SLOT + 1, 1,
-		                                           FIRST_PASS_SLOT + 2, FIRST_PASS_SLOT + 3, 2 };
 		for (uint32_t i = 0; i < RELIEF_LOD_PASSES && ret == 0; i++)
-			ret = relief_vk_timer_ticks(vk, &v->timer, slot[i], &end[i + 1]);
+			ret = relief_vk_timer_ticks(vk, &v->timer, pass_slot(i), &end[i + 1]);
 		for (uint32_t i = 0; i < RELIEF_LOD_PASSES && ret == 0; i++)
 			s.pass_ns[i] = relief_vk_ticks_elapsed_ns(vk, end[i], end[i + 1]);
 		if (ret < 0)
