@@ -404,7 +404,7 @@ static struct relief_view config_view(const struct config *c, const struct relie
 
 /* Per frame of one run (2 x run.frames): GPU ms, the LOD compute's and the selection's
  * part of it, and with `pass` non-NULL (the frames then drawn with pass timing) each LOD
- * pass's (RELIEF_LOD_PASSES per frame). */
+ * pass's, pass by pass (pass p of frame i at p x 2 x run.frames + i). */
 struct frame_times {
 	double *ms, *sel, *lod, *pass;
 };
@@ -485,7 +485,7 @@ static int measure(struct run *r, const struct config *c, bool analyse, const st
 		t->sel[i] = st.select_ns / 1e6;
 		t->lod[i] = st.lod_ns / 1e6;
 		for (int p = 0; t->pass && p < RELIEF_LOD_PASSES; p++)
-			t->pass[(size_t)i * RELIEF_LOD_PASSES + p] = st.pass_ns[p] / 1e6;
+			t->pass[(size_t)p * n + i] = st.pass_ns[p] / 1e6;
 		tri += (double)st.triangles;
 		quads += (double)st.quads;
 		patches += st.patches;
@@ -623,8 +623,8 @@ static int measure(struct run *r, const struct config *c, bool analyse, const st
 static int measure_passes(struct run *r, const struct config *cfg, int n, struct result *res)
 {
 	const size_t frames = 2 * (size_t)r->frames;
-	double *ms = malloc(sizeof(double) * frames * (3 + RELIEF_LOD_PASSES)), *one = malloc(sizeof(double) * frames);
-	int ret = ms && one ? 0 : -ENOMEM;
+	double *ms = malloc(sizeof(double) * frames * (3 + RELIEF_LOD_PASSES));
+	int ret = ms ? 0 : -ENOMEM;
 	const struct frame_times t = { ms, ms + frames, ms + 2 * frames, ms + 3 * frames };
 	for (int i = 0; i < n && ret == 0; i++) {
 		if ((ret = measure(r, &cfg[i], false, &t, &res[i])) < 0) {
@@ -632,14 +632,10 @@ static int measure_passes(struct run *r, const struct config *cfg, int n, struct
 			break;
 		}
 		res[i].profiled_lod_ms = bench_median(t.lod, frames);
-		for (int p = 0; p < RELIEF_LOD_PASSES; p++) {
-			for (size_t k = 0; k < frames; k++)
-				one[k] = t.pass[k * RELIEF_LOD_PASSES + p];
-			res[i].pass_ms[p] = bench_median(one, frames);
-		}
+		for (int p = 0; p < RELIEF_LOD_PASSES; p++)
+			res[i].pass_ms[p] = bench_median(t.pass + (size_t)p * frames, frames);
 	}
 	free(ms);
-	free(one);
 	return ret;
 }
 
