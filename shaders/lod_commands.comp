@@ -35,7 +35,8 @@ layout(std430, binding = 5) buffer Counters {
 	uvec4 draw_split;
 } counters;
 layout(std430, binding = 8) writeonly buffer Cmds { DrawCmd cmds[]; };
-layout(std430, binding = 11) readonly buffer Errors { float block_err[]; };
+layout(binding = 11) uniform samplerBuffer block_records; // as in terrain_draw.glsl
+float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
 layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; vec4 draw_eye; };
 
 layout(push_constant) uniform Push {
@@ -83,7 +84,7 @@ void blocks_near_eye(Instance it, vec2 eye)
 			vec2 d = max(max(lo - eye, eye - hi), vec2(0.0));
 			if (max(d.x, d.y) > max(side.x, side.y))
 				continue;
-			atomicMax(s_high, height_key(block_err[block_range_index(it.layer, ivec2(bx, by), pc.blocks) + 1u]));
+			atomicMax(s_high, height_key(block_err(block_range_index(it.layer, ivec2(bx, by), pc.blocks) + 1u)));
 			if (all(lessThanEqual(d, 0.5 * it.spacing)))
 				atomicOr(s_found, 1u);
 		}

@@ -67,7 +67,7 @@ uint block_clip(Instance it, vec2 lo, vec2 range)
 bool block_has_data(int layer, ivec2 bl)
 {
 	uint bit, i = block_data_index(layer, bl, pc.blocks, bit);
-	return ((uint(block_err[i]) >> bit) & 1u) != 0u;
+	return ((uint(block_err(i)) >> bit) & 1u) != 0u;
 }
 
 // Factors of quad patch k of drawn patch `it`: outer (u = 0 west, v = 0 north, u = 1 east,

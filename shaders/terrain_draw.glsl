@@ -21,7 +21,11 @@ layout(binding = 10, r32ui) uniform readonly uimage2DArray normals; // packSnorm
 
 // The normal (xyz) and validity (w: 1 valid, -1 no-data) of sample si of layer `layer`.
 vec4 normal_load(ivec2 si, int layer) { return unpackSnorm4x8(imageLoad(normals, ivec3(si, layer)).x); }
-layout(std430, binding = 11) readonly buffer Errors { float block_err[]; };
+// The layers' block records (block_record.glsl), read as R32_SFLOAT texels: a CPU
+// implementation gathers a texel buffer's loads for all lanes at once, where it loads a
+// storage buffer lane by lane (common/gpu/patch_gpu.c).
+layout(binding = 11) uniform samplerBuffer block_records;
+float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
 
 layout(push_constant) uniform DrawPush {
 	mat4 vp;          // camera-relative view-projection

@@ -29,7 +29,7 @@
 vec4 block_eps_at(int layer, ivec2 bl)
 {
 	uint base = block_eps_index(layer, bl, pc.blocks);
-	vec4 e = vec4(block_err[base], block_err[base + 1u], block_err[base + 2u], block_err[base + 3u]);
+	vec4 e = vec4(block_err(base), block_err(base + 1u), block_err(base + 2u), block_err(base + 3u));
 	e.y = max(e.x, e.y);
 	e.z = max(e.y, e.z);
 	e.w = max(e.z, e.w);
@@ -58,7 +58,7 @@ vec4 edge_eps_at(int layer, ivec2 bl, uint edge, vec4 eps)
 	if (!strips_bounded())
 		return eps;
 	uint i = block_strip_index(layer, bl, edge, pc.blocks);
-	vec4 e = max(eps, vec4(block_err[i], block_err[i + 1u], block_err[i + 2u], block_err[i + 3u]));
+	vec4 e = max(eps, vec4(block_err(i), block_err(i + 1u), block_err(i + 2u), block_err(i + 3u)));
 	e.y = max(e.x, e.y);
 	e.z = max(e.y, e.z);
 	e.w = max(e.z, e.w);
@@ -69,7 +69,7 @@ vec4 edge_eps_at(int layer, ivec2 bl, uint edge, vec4 eps)
 // at d + 1 (a fan from the centre at d = 2): how far it can lie from the finest surface.
 float strip_fine_at(int layer, ivec2 bl, uint edge, int d)
 {
-	return block_err[block_strip_index(layer, bl, edge, pc.blocks) + 4u + uint(d)];
+	return block_err(block_strip_index(layer, bl, edge, pc.blocks) + 4u + uint(d));
 }
 
 // The three of a block's nine measuring points (3 x 3, raster order) on edge `edge`.
@@ -83,7 +83,7 @@ ivec3 edge_points(uint edge)
 vec2 block_range_at(int layer, ivec2 bl)
 {
 	uint base = block_range_index(layer, bl, pc.blocks);
-	return vec2(block_err[base], block_err[base + 1u]);
+	return vec2(block_err(base), block_err(base + 1u));
 }
 
 // The height at which error segments are projected over a height range: a vertical error

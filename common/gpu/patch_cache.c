@@ -118,6 +118,9 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	uint32_t cap = vk->props.limits.maxImageArrayLayers < 0xffffu ? vk->props.limits.maxImageArrayLayers : 0xffffu;
 	if (cap > drawable)
 		cap = drawable;
+	/* The block records are read as one uniform texel buffer (patch_gpu.c). */
+	if (cap > vk->props.limits.maxTexelBufferElements / c->layer_floats)
+		cap = (uint32_t)(vk->props.limits.maxTexelBufferElements / c->layer_floats);
 	if (c->o.max_layers && cap > c->o.max_layers)
 		cap = c->o.max_layers;
 	uint32_t n = layers_for_budget(c, cap);
@@ -132,8 +135,9 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	    (ret = relief_vk_image_init(vk, &c->normals, VK_FORMAT_R32_UINT, c->P, c->P, n,
 	                                VK_IMAGE_VIEW_TYPE_2D_ARRAY, POOL_USAGE, VK_IMAGE_ASPECT_COLOR_BIT)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->errors, (VkDeviceSize)n * c->layer_floats * sizeof(float),
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-	                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT, RELIEF_VK_MEMORY_DEVICE)) < 0 ||
+	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+	                                 VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+	                                 RELIEF_VK_MEMORY_DEVICE)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->staging, (VkDeviceSize)c->o.staging_slots * c->slot_ints * 4,
 	                                 VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
 	                                 RELIEF_VK_MEMORY_UPLOAD)) < 0 ||
@@ -156,8 +160,11 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	memset(c->use_table.map, 0, sizeof(uint32_t) * c->count);
 	memset(c->use_dist.map, 0xff, 2 * sizeof(uint32_t) * c->count);
 	c->pool_bytes = pool_bytes_for(c, n);
-	c->pool = (struct relief_patch_pool){ c->heights.view, c->normals.view, c->errors.buffer, n,
-	                                      c->layer_table.buffer, c->use_table.buffer, c->use_dist.buffer };
+	c->pool = (struct relief_patch_pool){
+		.heights = c->heights.view, .normals = c->normals.view, .block_errors = c->errors.buffer, .layers = n,
+		.layer_table = c->layer_table.buffer, .use_table = c->use_table.buffer, .use_dist = c->use_dist.buffer,
+		/* .block_view: patch_gpu_init() */
+	};
 	c->owner = malloc(sizeof(int32_t) * n);
 	c->free_layers = malloc(sizeof(uint32_t) * n);
 	c->free_slots = malloc(sizeof(uint32_t) * c->o.staging_slots);

@@ -92,6 +92,7 @@ struct relief_patch_pool {
 	VkImageView heights;      /* 2D array, R32_SINT, (P+2)^2 */
 	VkImageView normals;      /* 2D array, R32_UINT (packed snorm8 x 4), P^2 */
 	VkBuffer block_errors;    /* per layer: its block record (relief_patch_layer_floats()) */
+	VkBufferView block_view;  /* the same as R32_SFLOAT texels (a uniform texel buffer) */
 	uint32_t layers;
 	/* The per-patch tables have one element per entry, the patch's record number in the
 	 * file's index (relief_index_entry()): EMPTY patches outside the raster have none.

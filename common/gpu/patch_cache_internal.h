@@ -72,6 +72,7 @@ struct relief_patch_cache {
 	struct relief_vk_buffer errors, staging, flags, layer_table, use_table, use_dist;
 	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH] */
 	VkBufferView staging_view;    /* the staging buffer as R32_SINT texels (see patch_gpu.c) */
+	VkBufferView errors_view;     /* the block records as R32_SFLOAT texels, for the terrain (patch_gpu.c) */
 	VkDescriptorSetLayout set_layout;
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;

@@ -14,32 +14,34 @@
  * pass's (the batch's end). */
 #define QUERIES 4
 
-/* The staging buffer is read through an R32_SINT storage texel buffer, not as a storage
- * buffer: a CPU implementation (lavapipe) loads texels for all SIMD lanes at once (a
- * gather), but a storage buffer lane by lane in a scalar loop with a bounds check each,
- * which made up most of the decode pass (docs/benchmarks.md). */
-static int create_staging_view(struct relief_patch_cache *c)
+/* A texel view of `format` over the whole of `buffer` (`size` bytes, 4 per texel), which the
+ * shaders read as a texel buffer of kind `feature`. Both of the cache's are read that way,
+ * not as storage buffers: a CPU implementation (lavapipe) loads texels for all SIMD lanes at
+ * once (a gather), but a storage buffer lane by lane in a scalar loop with a bounds check
+ * each, which made up most of the decode pass (docs/benchmarks.md) and of the LOD's factor
+ * and border passes (docs/lod.md, "Where the LOD compute's time goes"). */
+static int create_texel_view(struct relief_patch_cache *c, VkBuffer buffer, VkDeviceSize size, VkFormat format,
+                             VkFormatFeatureFlags feature, const char *what, VkBufferView *out)
 {
 	struct relief_vk *vk = c->vk;
 	VkFormatProperties fp;
-	vkGetPhysicalDeviceFormatProperties(vk->phys, VK_FORMAT_R32_SINT, &fp);
-	uint64_t texels = c->staging.size / 4;
-	if (!(fp.bufferFeatures & VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT) ||
-	    texels > vk->props.limits.maxTexelBufferElements) {
+	vkGetPhysicalDeviceFormatProperties(vk->phys, format, &fp);
+	uint64_t texels = size / 4;
+	if (!(fp.bufferFeatures & feature) || texels > vk->props.limits.maxTexelBufferElements) {
 		relief_log(&c->log, RELIEF_LOG_ERROR,
-		           "patch cache: the device cannot read the staging buffer's %llu R32_SINT texels as a "
-		           "storage texel buffer (maxTexelBufferElements %u)",
-		           (unsigned long long)texels, vk->props.limits.maxTexelBufferElements);
+		           "patch cache: the device cannot read %s, %llu texels, as a texel buffer "
+		           "(maxTexelBufferElements %u)",
+		           what, (unsigned long long)texels, vk->props.limits.maxTexelBufferElements);
 		return -ENOTSUP;
 	}
 	VkBufferViewCreateInfo bi = {
 		.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO,
-		.buffer = c->staging.buffer,
-		.format = VK_FORMAT_R32_SINT,
+		.buffer = buffer,
+		.format = format,
 		.offset = 0,
 		.range = VK_WHOLE_SIZE,
 	};
-	return relief_vk_check(vk, vkCreateBufferView(vk->device, &bi, NULL, &c->staging_view), "vkCreateBufferView");
+	return relief_vk_check(vk, vkCreateBufferView(vk->device, &bi, NULL, out), "vkCreateBufferView");
 }
 
 static int create_descriptors(struct relief_patch_cache *c)
@@ -216,9 +218,15 @@ static int create_batches(struct relief_patch_cache *c)
 int patch_gpu_init(struct relief_patch_cache *c)
 {
 	int ret;
-	if ((ret = create_staging_view(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 ||
-	    (ret = create_batches(c)) < 0)
+	if ((ret = create_texel_view(c, c->staging.buffer, c->staging.size, VK_FORMAT_R32_SINT,
+	                             VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT, "the staging buffer's R32_SINT words",
+	                             &c->staging_view)) < 0 ||
+	    (ret = create_texel_view(c, c->errors.buffer, c->errors.size, VK_FORMAT_R32_SFLOAT,
+	                             VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, "the block records' R32_SFLOAT words",
+	                             &c->errors_view)) < 0 ||
+	    (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
 		return ret;
+	c->pool.block_view = c->errors_view;
 	return init_layouts(c);
 }
 
@@ -246,6 +254,8 @@ void patch_gpu_finish(struct relief_patch_cache *c)
 		vkDestroyDescriptorSetLayout(vk->device, c->set_layout, NULL);
 	if (c->staging_view)
 		vkDestroyBufferView(vk->device, c->staging_view, NULL);
+	if (c->errors_view)
+		vkDestroyBufferView(vk->device, c->errors_view, NULL);
 }
 
 void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)

@@ -114,7 +114,8 @@ struct draw_camera {
  * patch's record number in the file's index (relief_index_entry(); shaders/patch_entry.glsl).
  * Bindings: 0 patch info, 1 layer table, 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
- * 8 draw records, 9 heights, 10 normals (storage images), 11 block errors, 12 drawn marks,
+ * 8 draw records, 9 heights, 10 normals (storage images), 11 the layers' block records
+ * (a uniform texel buffer, pool.block_view: patch_gpu.c says why), 12 drawn marks,
  * 13 tessellation factors and morph bytes (uvec4 per quad, lod_factors.comp), 14 curtains
  * (terrain-edge sides of drawn patches), 15 the draw camera's view-projection (float[16]),
  * 16 seal records (uvec4 per quad, terrain_seal.glsl),
@@ -129,11 +130,14 @@ struct draw_camera {
  * only by the capture's pipelines). */
 #define BINDINGS 24u
 #define MESH_BINDING 23u
-#define STORAGE_BUFFERS (BINDINGS - 2u) /* all but the two images */
+#define RECORDS_BINDING 11u
+#define STORAGE_BUFFERS (BINDINGS - 3u) /* all but the two images and the block records */
 
 static inline VkDescriptorType binding_type(uint32_t i)
 {
-	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+	return i == 9 || i == 10           ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
+	       : i == RECORDS_BINDING ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+	                              : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
 /* One kind of frame's factor and border passes (lod_factors.comp, lod_borders.comp), made

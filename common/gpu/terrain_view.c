@@ -46,14 +46,15 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_group_init(vk, &v->readback, readback, sizeof(readback) / sizeof(readback[0]),
 	                                       RELIEF_VK_MEMORY_READBACK)) < 0)
 		goto fail;
-	VkDescriptorPoolSize sizes[2] = {
+	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
+		{ VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 },
 	};
 	VkDescriptorPoolCreateInfo pi = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
 		.maxSets = 2,
-		.poolSizeCount = 2,
+		.poolSizeCount = 3,
 		.pPoolSizes = sizes,
 	};
 	if ((ret = relief_vk_check(vk, vkCreateDescriptorPool(vk->device, &pi, NULL, &v->pool), "vkCreateDescriptorPool")) < 0)
@@ -71,7 +72,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	for (int s = 0; s < 2; s++) {
 		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
-		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, pool->block_errors,
+		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE /* pool->block_view */,
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->lists.buffer,
 		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
@@ -90,8 +91,9 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 				.dstBinding = i,
 				.descriptorCount = 1,
 				.descriptorType = binding_type(i),
-				.pBufferInfo = binding_type(i) == VK_DESCRIPTOR_TYPE_STORAGE_IMAGE ? NULL : &bi[i],
+				.pBufferInfo = binding_type(i) == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER ? &bi[i] : NULL,
 				.pImageInfo = i == 9 ? &ii[0] : i == 10 ? &ii[1] : NULL,
+				.pTexelBufferView = i == RECORDS_BINDING ? &pool->block_view : NULL,
 			};
 		}
 		vkUpdateDescriptorSets(vk->device, MESH_BINDING, w, 0, NULL);
