@@ -21,7 +21,7 @@ void main()
 	uint per = 4u * pc.blocks + 4u, i = gl_GlobalInvocationID.x, slot = i / per, r = i % per;
 	if (slot >= counters.drawn_count)
 		return;
-	Instance it = inst[slot];
+	Instance it = inst_at(slot);
 	int last = int(pc.P) - 1;
 	if (r < 4u * pc.blocks) {
 		uint side = r / pc.blocks; // 0 north, 1 south, 2 west, 3 east

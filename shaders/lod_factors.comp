@@ -16,9 +16,12 @@ layout(local_size_x = 64) in;
 // border) on `side` (0 north, 1 south, 2 west, 3 east): (outer factor | morph byte << 8,
 // seal side record);
 // corner c (bit 0 east, bit 1 south): (sealed height bits, 1) or (, 0).
-layout(std430, binding = 17) readonly buffer Borders { uvec2 borders[]; };
-uvec2 border_edge(uint slot, uint side, int a) { return borders[slot * (4u * pc.blocks + 4u) + side * pc.blocks + uint(a)]; }
-uvec2 border_corner(uint slot, uint c) { return borders[slot * (4u * pc.blocks + 4u) + 4u * pc.blocks + c]; }
+// Read as RG32_UINT texels (binding 25 over the buffer lod_borders.comp writes as binding
+// 17), as the block records (terrain_draw.glsl).
+layout(binding = 25) uniform usamplerBuffer border_texels;
+uvec2 border_at(uint i) { return texelFetch(border_texels, int(i)).xy; }
+uvec2 border_edge(uint slot, uint side, int a) { return border_at(slot * (4u * pc.blocks + 4u) + side * pc.blocks + uint(a)); }
+uvec2 border_corner(uint slot, uint c) { return border_at(slot * (4u * pc.blocks + 4u) + 4u * pc.blocks + c); }
 
 // The seal record's corner part (terrain_seal.glsl) for a quad with corners s[] (patch
 // samples): the sealed height at the patch corner among them, if any.
@@ -198,7 +201,7 @@ void main()
 	uvec4 seal;
 	uvec2 m;
 	bool inside;
-	quad_factors(slot, inst[slot], k, o, i, seal, m, inside);
+	quad_factors(slot, inst_at(slot), k, o, i, seal, m, inside);
 	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);

@@ -26,6 +26,17 @@ vec4 normal_load(ivec2 si, int layer) { return unpackSnorm4x8(imageLoad(normals,
 // storage buffer lane by lane (common/gpu/patch_gpu.c).
 layout(binding = 11) uniform samplerBuffer block_records;
 float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
+// The instances (binding 4, written by lod_select.comp) as RGBA32_UINT texels, four an
+// instance in instance_pack()'s order, which is their memory order: for the passes that
+// read them per lane, as the block records above.
+layout(binding = 24) uniform usamplerBuffer instance_texels;
+Instance inst_at(uint slot)
+{
+	int t = 4 * int(slot);
+	uvec4 p[4] = uvec4[4](texelFetch(instance_texels, t), texelFetch(instance_texels, t + 1),
+	                      texelFetch(instance_texels, t + 2), texelFetch(instance_texels, t + 3));
+	return instance_unpack(p);
+}
 
 layout(push_constant) uniform DrawPush {
 	mat4 vp;          // camera-relative view-projection

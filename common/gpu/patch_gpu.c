@@ -14,34 +14,35 @@
  * pass's (the batch's end). */
 #define QUERIES 4
 
-/* A texel view of `format` over the whole of `buffer` (`size` bytes, 4 per texel), which the
- * shaders read as a texel buffer of kind `feature`. Both of the cache's are read that way,
- * not as storage buffers: a CPU implementation (lavapipe) loads texels for all SIMD lanes at
- * once (a gather), but a storage buffer lane by lane in a scalar loop with a bounds check
- * each, which made up most of the decode pass (docs/benchmarks.md) and of the LOD's factor
- * and border passes (docs/lod.md, "Where the LOD compute's time goes"). */
-static int create_texel_view(struct relief_patch_cache *c, VkBuffer buffer, VkDeviceSize size, VkFormat format,
-                             VkFormatFeatureFlags feature, const char *what, VkBufferView *out)
+/* The staging words and the block records as texel buffers (relief_vk_texel_view_create()
+ * says why): the decode reads its staging slots, the terrain's border and factor passes
+ * the block records, for every lane at once on a CPU implementation, where storage
+ * buffer reads had made up most of those passes (docs/benchmarks.md, docs/lod.md). */
+static int create_texel_views(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
-	VkFormatProperties fp;
-	vkGetPhysicalDeviceFormatProperties(vk->phys, format, &fp);
-	uint64_t texels = size / 4;
-	if (!(fp.bufferFeatures & feature) || texels > vk->props.limits.maxTexelBufferElements) {
-		relief_log(&c->log, RELIEF_LOG_ERROR,
-		           "patch cache: the device cannot read %s, %llu texels, as a texel buffer "
-		           "(maxTexelBufferElements %u)",
-		           what, (unsigned long long)texels, vk->props.limits.maxTexelBufferElements);
-		return -ENOTSUP;
-	}
-	VkBufferViewCreateInfo bi = {
-		.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO,
-		.buffer = buffer,
-		.format = format,
-		.offset = 0,
-		.range = VK_WHOLE_SIZE,
+	const struct {
+		const struct relief_vk_buffer *b;
+		VkFormat format;
+		VkFormatFeatureFlags feature;
+		const char *what;
+		VkBufferView *view;
+	} v[] = {
+		{ &c->staging, VK_FORMAT_R32_SINT, VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT,
+		  "the staging buffer as R32_SINT storage texels", &c->staging_view },
+		{ &c->errors, VK_FORMAT_R32_SFLOAT, VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT,
+		  "the block records as R32_SFLOAT uniform texels", &c->errors_view },
 	};
-	return relief_vk_check(vk, vkCreateBufferView(vk->device, &bi, NULL, out), "vkCreateBufferView");
+	for (size_t i = 0; i < sizeof(v) / sizeof(v[0]); i++) {
+		int ret = relief_vk_texel_view_create(vk, v[i].b, v[i].format, 1, v[i].feature, v[i].view);
+		if (ret == -ENOTSUP)
+			relief_log(&c->log, RELIEF_LOG_ERROR,
+			           "patch cache: the device cannot read %s, %llu of them (maxTexelBufferElements %u)",
+			           v[i].what, (unsigned long long)(v[i].b->size / 4), vk->props.limits.maxTexelBufferElements);
+		if (ret < 0)
+			return ret;
+	}
+	return 0;
 }
 
 static int create_descriptors(struct relief_patch_cache *c)
@@ -218,13 +219,7 @@ static int create_batches(struct relief_patch_cache *c)
 int patch_gpu_init(struct relief_patch_cache *c)
 {
 	int ret;
-	if ((ret = create_texel_view(c, c->staging.buffer, c->staging.size, VK_FORMAT_R32_SINT,
-	                             VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT, "the staging buffer's R32_SINT words",
-	                             &c->staging_view)) < 0 ||
-	    (ret = create_texel_view(c, c->errors.buffer, c->errors.size, VK_FORMAT_R32_SFLOAT,
-	                             VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, "the block records' R32_SFLOAT words",
-	                             &c->errors_view)) < 0 ||
-	    (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
+	if ((ret = create_texel_views(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
 		return ret;
 	c->pool.block_view = c->errors_view;
 	return init_layouts(c);

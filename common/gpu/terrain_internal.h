@@ -127,17 +127,23 @@ struct draw_camera {
  * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count),
  * 22 the index windows (per level: entry columns, rows, first entry, 0),
  * 23 the mesh capture (terrain_mesh.geom; written only once a view enables it, and read
- * only by the capture's pipelines). */
-#define BINDINGS 24u
+ * only by the capture's pipelines), 24 the instances (4) and 25 the border records (17) as
+ * uniform texel buffers, RGBA32_UINT and RG32_UINT, for the passes that read them per lane
+ * (relief_vk_texel_view_create() says why; 4 and 17 are how the passes write them). */
+#define BINDINGS 26u
 #define MESH_BINDING 23u
 #define RECORDS_BINDING 11u
-#define STORAGE_BUFFERS (BINDINGS - 3u) /* all but the two images and the block records */
+#define INSTANCE_TEXELS_BINDING 24u
+#define BORDER_TEXELS_BINDING 25u
+#define UNIFORM_TEXEL_BUFFERS 3u
+#define STORAGE_BUFFERS (BINDINGS - 2u - UNIFORM_TEXEL_BUFFERS) /* all but the images and texel buffers */
 
 static inline VkDescriptorType binding_type(uint32_t i)
 {
-	return i == 9 || i == 10           ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
-	       : i == RECORDS_BINDING ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
-	                              : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
+	       : i == RECORDS_BINDING || i == INSTANCE_TEXELS_BINDING || i == BORDER_TEXELS_BINDING
+	               ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+	               : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
 /* One kind of frame's factor and border passes (lod_factors.comp, lod_borders.comp), made
@@ -203,6 +209,7 @@ struct relief_terrain_view {
 	 * Nothing the device reads or updates every frame lives in memory the CPU maps, which
 	 * on a discrete GPU is system memory across the bus. */
 	struct relief_vk_buffer_group local, readback;
+	VkBufferView instance_texels, border_texels; /* bindings 24 and 25 */
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;

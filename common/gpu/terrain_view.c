@@ -18,17 +18,18 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	const VkBufferUsageFlags storage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
 	const VkBufferUsageFlags indirect = storage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT;
 	const VkBufferUsageFlags read = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+	const VkBufferUsageFlags texels = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
 	const struct relief_vk_buffer_spec local[] = {
 		{ &v->split[0], 4 * t->count, storage },
 		{ &v->split[1], 4 * t->count, storage },
-		{ &v->instances, sizeof(struct instance) * t->max_patches, storage | read },
+		{ &v->instances, sizeof(struct instance) * t->max_patches, storage | read | texels },
 		{ &v->cmds, 2 * 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
 		{ &v->counters, sizeof(struct counters), indirect | read },
 		{ &v->wants, sizeof(struct want) * WANT_CAP, storage | read },
 		{ &v->drawn, 4 * t->count, storage },
 		{ &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage },
 		{ &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage },
-		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage },
+		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage | texels },
 		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
 		{ &v->camera, sizeof(struct draw_camera), storage },
 		{ &v->lists, 4 * (VkDeviceSize)t->max_quads, storage },
@@ -46,10 +47,22 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_group_init(vk, &v->readback, readback, sizeof(readback) / sizeof(readback[0]),
 	                                       RELIEF_VK_MEMORY_READBACK)) < 0)
 		goto fail;
+	const VkFormatFeatureFlags uniform_texels = VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT;
+	if ((ret = relief_vk_texel_view_create(vk, &v->instances, VK_FORMAT_R32G32B32A32_UINT, 4, uniform_texels,
+	                                       &v->instance_texels)) < 0 ||
+	    (ret = relief_vk_texel_view_create(vk, &v->borders, VK_FORMAT_R32G32_UINT, 2, uniform_texels,
+	                                       &v->border_texels)) < 0) {
+		if (ret == -ENOTSUP)
+			relief_log(&vk->log, RELIEF_LOG_ERROR,
+			           "terrain view: the device cannot read %u patches' instances and border records as uniform "
+			           "texel buffers (maxTexelBufferElements %u)",
+			           t->max_patches, vk->props.limits.maxTexelBufferElements);
+		goto fail;
+	}
 	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
-		{ VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 },
+		{ VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 2 * UNIFORM_TEXEL_BUFFERS },
 	};
 	VkDescriptorPoolCreateInfo pi = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
@@ -76,27 +89,35 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->lists.buffer,
 		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
-		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */ };
+		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */,
+		                            VK_NULL_HANDLE, VK_NULL_HANDLE /* texel buffers: views[] */ };
+		VkBufferView views[BINDINGS] = { [RECORDS_BINDING] = pool->block_view,
+		                                 [INSTANCE_TEXELS_BINDING] = v->instance_texels,
+		                                 [BORDER_TEXELS_BINDING] = v->border_texels };
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
 			{ VK_NULL_HANDLE, pool->normals, VK_IMAGE_LAYOUT_GENERAL },
 		};
 		VkWriteDescriptorSet w[BINDINGS];
-		for (uint32_t i = 0; i < MESH_BINDING; i++) {
+		uint32_t n = 0;
+		for (uint32_t i = 0; i < BINDINGS; i++) {
+			if (i == MESH_BINDING)
+				continue;
+			const VkDescriptorType type = binding_type(i);
 			bi[i] = (VkDescriptorBufferInfo){ bufs[i], 0, VK_WHOLE_SIZE };
-			w[i] = (VkWriteDescriptorSet){
+			w[n++] = (VkWriteDescriptorSet){
 				.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
 				.dstSet = v->set[s],
 				.dstBinding = i,
 				.descriptorCount = 1,
-				.descriptorType = binding_type(i),
-				.pBufferInfo = binding_type(i) == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER ? &bi[i] : NULL,
+				.descriptorType = type,
+				.pBufferInfo = type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER ? &bi[i] : NULL,
 				.pImageInfo = i == 9 ? &ii[0] : i == 10 ? &ii[1] : NULL,
-				.pTexelBufferView = i == RECORDS_BINDING ? &pool->block_view : NULL,
+				.pTexelBufferView = type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER ? &views[i] : NULL,
 			};
 		}
-		vkUpdateDescriptorSets(vk->device, MESH_BINDING, w, 0, NULL);
+		vkUpdateDescriptorSets(vk->device, n, w, 0, NULL);
 	}
 	VkFenceCreateInfo fi = { .sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO };
 	if ((vk->has.pipeline_statistics &&
@@ -136,6 +157,10 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_timer_finish(vk, &v->timer);
 	if (v->pool)
 		vkDestroyDescriptorPool(vk->device, v->pool, NULL);
+	if (v->instance_texels)
+		vkDestroyBufferView(vk->device, v->instance_texels, NULL);
+	if (v->border_texels)
+		vkDestroyBufferView(vk->device, v->border_texels, NULL);
 	relief_vk_buffer_finish(vk, &v->split[0]);
 	relief_vk_buffer_finish(vk, &v->split[1]);
 	relief_vk_buffer_finish(vk, &v->instances);

@@ -192,6 +192,15 @@ int relief_vk_buffer_upload(struct relief_vk *vk, const struct relief_vk_buffer 
 /* Destroys the buffer, and frees its memory if it has its own. */
 void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
 
+/* A view of the whole of buffer b as texels of `format` (4 bytes a component, `components`
+ * a texel), for shaders that read it as a texel buffer of kind `feature`
+ * (VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT or _STORAGE_): a CPU implementation gathers
+ * a texel buffer's reads for all lanes, where it reads a storage buffer lane by lane
+ * (docs/platform.md). -ENOTSUP where the format lacks the feature or b holds more than
+ * maxTexelBufferElements texels; destroy with vkDestroyBufferView(). */
+int relief_vk_texel_view_create(struct relief_vk *vk, const struct relief_vk_buffer *b, VkFormat format,
+                                uint32_t components, VkFormatFeatureFlags feature, VkBufferView *out);
+
 /* Several buffers bound at aligned offsets of one allocation: a terrain view's fifteen
  * buffers take two allocations (device, readback), not fifteen. The group owns the
  * memory; finish its buffers (relief_vk_buffer_finish()) before the group. */

@@ -172,6 +172,23 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
 	memset(b, 0, sizeof(*b));
 }
 
+int relief_vk_texel_view_create(struct relief_vk *vk, const struct relief_vk_buffer *b, VkFormat format,
+                                uint32_t components, VkFormatFeatureFlags feature, VkBufferView *out)
+{
+	VkFormatProperties fp;
+	vkGetPhysicalDeviceFormatProperties(vk->phys, format, &fp);
+	if (!(fp.bufferFeatures & feature) || b->size / (4u * components) > vk->props.limits.maxTexelBufferElements)
+		return -ENOTSUP;
+	VkBufferViewCreateInfo bi = {
+		.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO,
+		.buffer = b->buffer,
+		.format = format,
+		.offset = 0,
+		.range = VK_WHOLE_SIZE,
+	};
+	return relief_vk_check(vk, vkCreateBufferView(vk->device, &bi, NULL, out), "vkCreateBufferView");
+}
+
 int relief_vk_buffer_group_init(struct relief_vk *vk, struct relief_vk_buffer_group *g,
                                 const struct relief_vk_buffer_spec *specs, size_t n, enum relief_vk_memory_use use)
 {
