@@ -49,7 +49,8 @@ layout(push_constant) uniform Push {
 	uint gpu_decides; // this decision splits the draws; else cpu_cull is the one drawn with
 	uint phase;     // 0: the decision and the factor pass's size; 1: the lists and their records
 } pc;
-layout(std430, binding = 13) readonly buffer Factors { uvec4 factors[]; };
+// lod_factors.comp's factors (binding 13) as RGBA32_UINT texels (terrain_internal.h says why).
+layout(binding = 26) uniform usamplerBuffer factor_texels;
 layout(std430, binding = 19) writeonly buffer Lists { uint lists[]; };
 
 shared uint s_high; // largest block height near the eye, as an ordered key (height_key)
@@ -111,7 +112,7 @@ void lists_write(uint total)
 	uint q0 = min(lane * per, total), q1 = min(q0 + per, total);
 	uvec2 n = uvec2(0u);
 	for (uint q = q0; q < q1; q++) {
-		uvec4 f = factors[q];
+		uvec4 f = texelFetch(factor_texels, int(q));
 		if (f.x != 0u)
 			n += f.w != 0u ? uvec2(0u, 1u) : uvec2(1u, 0u);
 	}
@@ -124,7 +125,7 @@ void lists_write(uint total)
 	}
 	uint back = uint(lists.length()) - 1u;
 	for (uint q = q0; q < q1; q++) {
-		uvec4 f = factors[q];
+		uvec4 f = texelFetch(factor_texels, int(q));
 		if (f.x == 0u)
 			continue;
 		if (f.w != 0u)

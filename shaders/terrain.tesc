@@ -15,8 +15,10 @@ layout(location = 3) out float out_down[];
 layout(location = 4) patch out uvec4 out_seal; // terrain_seal.glsl
 layout(location = 5) patch out uvec4 out_inst[4]; // the quad's patch instance (instance_pack)
 layout(location = 9) patch out uvec3 out_factors; // the quad's factors[] record (lod_factors.comp)
-layout(std430, binding = 13) readonly buffer Factors { uvec4 factors[]; };
-layout(std430, binding = 16) readonly buffer Seals { uvec4 seals[]; };
+// lod_factors.comp's factors and seal records (bindings 13 and 16) as RGBA32_UINT texels
+// (terrain_internal.h says why).
+layout(binding = 26) uniform usamplerBuffer factor_texels;
+layout(binding = 27) uniform usamplerBuffer seal_texels;
 
 float byte_of(uint v, uint i) { return float((v >> (8u * i)) & 0xffu); }
 
@@ -26,14 +28,14 @@ void main()
 	out_down[gl_InvocationID] = in_down[gl_InvocationID];
 	if (gl_InvocationID != 0)
 		return;
-	uvec4 f = factors[in_quad[0]];
+	uvec4 f = texelFetch(factor_texels, int(in_quad[0]));
 	gl_TessLevelOuter[0] = byte_of(f.x, 0u);
 	gl_TessLevelOuter[1] = byte_of(f.x, 1u);
 	gl_TessLevelOuter[2] = byte_of(f.x, 2u);
 	gl_TessLevelOuter[3] = byte_of(f.x, 3u);
 	gl_TessLevelInner[0] = byte_of(f.y, 0u);
 	gl_TessLevelInner[1] = byte_of(f.y, 1u);
-	out_seal = seals[in_quad[0]];
+	out_seal = texelFetch(seal_texels, int(in_quad[0]));
 	out_factors = f.xyz;
-	instance_pack(inst[in_slot[0]], out_inst);
+	inst_texels_at(in_slot[0], out_inst); // instance_pack()'s order
 }

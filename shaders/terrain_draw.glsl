@@ -2,7 +2,6 @@
 // Needs patch_entry.glsl (per-patch buffers by entry).
 layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
 layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
-layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) readonly buffer Counters {
 	uint drawn_count; uint draws; uint wants; uint curtains;
 	uvec4 factor_groups, border_groups;
@@ -30,11 +29,15 @@ float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
 // instance in instance_pack()'s order, which is their memory order: for the passes that
 // read them per lane, as the block records above.
 layout(binding = 24) uniform usamplerBuffer instance_texels;
+void inst_texels_at(uint slot, out uvec4 p[4])
+{
+	for (int j = 0; j < 4; j++)
+		p[j] = texelFetch(instance_texels, 4 * int(slot) + j);
+}
 Instance inst_at(uint slot)
 {
-	int t = 4 * int(slot);
-	uvec4 p[4] = uvec4[4](texelFetch(instance_texels, t), texelFetch(instance_texels, t + 1),
-	                      texelFetch(instance_texels, t + 2), texelFetch(instance_texels, t + 3));
+	uvec4 p[4];
+	inst_texels_at(slot, p);
 	return instance_unpack(p);
 }
 

@@ -127,23 +127,24 @@ struct draw_camera {
  * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count),
  * 22 the index windows (per level: entry columns, rows, first entry, 0),
  * 23 the mesh capture (terrain_mesh.geom; written only once a view enables it, and read
- * only by the capture's pipelines), 24 the instances (4) and 25 the border records (17) as
- * uniform texel buffers, RGBA32_UINT and RG32_UINT, for the passes that read them per lane
- * (relief_vk_texel_view_create() says why; 4 and 17 are how the passes write them). */
-#define BINDINGS 26u
+ * only by the capture's pipelines); what the shaders read per lane as uniform texel buffers
+ * (relief_vk_texel_view_create() says why) over buffers the compute passes write as the
+ * storage buffers named in brackets: 24 the instances (4, RGBA32_UINT), 25 the border
+ * records (17, RG32_UINT), 26 the factors (13, RGBA32_UINT), 27 the seal records (16,
+ * RGBA32_UINT), 28 the quad lists (19, R32_UINT). */
+#define BINDINGS 29u
 #define MESH_BINDING 23u
 #define RECORDS_BINDING 11u
-#define INSTANCE_TEXELS_BINDING 24u
-#define BORDER_TEXELS_BINDING 25u
-#define UNIFORM_TEXEL_BUFFERS 3u
+#define FIRST_TEXELS_BINDING 24u /* 24-28: the views' texels */
+#define VIEW_TEXELS (BINDINGS - FIRST_TEXELS_BINDING)
+#define UNIFORM_TEXEL_BUFFERS (1u + VIEW_TEXELS)
 #define STORAGE_BUFFERS (BINDINGS - 2u - UNIFORM_TEXEL_BUFFERS) /* all but the images and texel buffers */
 
 static inline VkDescriptorType binding_type(uint32_t i)
 {
-	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
-	       : i == RECORDS_BINDING || i == INSTANCE_TEXELS_BINDING || i == BORDER_TEXELS_BINDING
-	               ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
-	               : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+	return i == 9 || i == 10                             ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
+	       : i == RECORDS_BINDING || i >= FIRST_TEXELS_BINDING ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+	                                                          : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
 /* One kind of frame's factor and border passes (lod_factors.comp, lod_borders.comp), made
@@ -209,7 +210,7 @@ struct relief_terrain_view {
 	 * Nothing the device reads or updates every frame lives in memory the CPU maps, which
 	 * on a discrete GPU is system memory across the bus. */
 	struct relief_vk_buffer_group local, readback;
-	VkBufferView instance_texels, border_texels; /* bindings 24 and 25 */
+	VkBufferView texels[VIEW_TEXELS]; /* bindings FIRST_TEXELS_BINDING.. */
 	VkDescriptorPool pool;
 	VkDescriptorSet set[2];
 	uint32_t parity;

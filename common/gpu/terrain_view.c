@@ -27,12 +27,12 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->counters, sizeof(struct counters), indirect | read },
 		{ &v->wants, sizeof(struct want) * WANT_CAP, storage | read },
 		{ &v->drawn, 4 * t->count, storage },
-		{ &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage },
-		{ &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage },
+		{ &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage | texels },
+		{ &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage | texels },
 		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage | texels },
 		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
 		{ &v->camera, sizeof(struct draw_camera), storage },
-		{ &v->lists, 4 * (VkDeviceSize)t->max_quads, storage },
+		{ &v->lists, 4 * (VkDeviceSize)t->max_quads, storage | texels },
 		{ &v->frontier, 8 * (VkDeviceSize)t->count, storage },
 		{ &v->passes, 16 * RELIEF_MAX_LEVELS, indirect },
 	};
@@ -47,18 +47,23 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	    (ret = relief_vk_buffer_group_init(vk, &v->readback, readback, sizeof(readback) / sizeof(readback[0]),
 	                                       RELIEF_VK_MEMORY_READBACK)) < 0)
 		goto fail;
-	const VkFormatFeatureFlags uniform_texels = VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT;
-	if ((ret = relief_vk_texel_view_create(vk, &v->instances, VK_FORMAT_R32G32B32A32_UINT, 4, uniform_texels,
-	                                       &v->instance_texels)) < 0 ||
-	    (ret = relief_vk_texel_view_create(vk, &v->borders, VK_FORMAT_R32G32_UINT, 2, uniform_texels,
-	                                       &v->border_texels)) < 0) {
-		if (ret == -ENOTSUP)
-			relief_log(&vk->log, RELIEF_LOG_ERROR,
-			           "terrain view: the device cannot read %u patches' instances and border records as uniform "
-			           "texel buffers (maxTexelBufferElements %u)",
-			           t->max_patches, vk->props.limits.maxTexelBufferElements);
-		goto fail;
-	}
+	/* The texel views, in binding order from FIRST_TEXELS_BINDING. */
+	const struct { const struct relief_vk_buffer *b; VkFormat format; uint32_t components; } tx[VIEW_TEXELS] = {
+		{ &v->instances, VK_FORMAT_R32G32B32A32_UINT, 4 }, { &v->borders, VK_FORMAT_R32G32_UINT, 2 },
+		{ &v->factors, VK_FORMAT_R32G32B32A32_UINT, 4 },   { &v->seals, VK_FORMAT_R32G32B32A32_UINT, 4 },
+		{ &v->lists, VK_FORMAT_R32_UINT, 1 },
+	};
+	for (uint32_t i = 0; i < VIEW_TEXELS; i++)
+		if ((ret = relief_vk_texel_view_create(vk, tx[i].b, tx[i].format, tx[i].components,
+		                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &v->texels[i])) < 0) {
+			if (ret == -ENOTSUP)
+				relief_log(&vk->log, RELIEF_LOG_ERROR,
+				           "terrain view: the device cannot read binding %u's %llu bytes as a uniform texel "
+				           "buffer (maxTexelBufferElements %u)",
+				           FIRST_TEXELS_BINDING + i, (unsigned long long)tx[i].b->size,
+				           vk->props.limits.maxTexelBufferElements);
+			goto fail;
+		}
 	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
@@ -89,11 +94,9 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->lists.buffer,
 		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
-		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */,
-		                            VK_NULL_HANDLE, VK_NULL_HANDLE /* texel buffers: views[] */ };
-		VkBufferView views[BINDINGS] = { [RECORDS_BINDING] = pool->block_view,
-		                                 [INSTANCE_TEXELS_BINDING] = v->instance_texels,
-		                                 [BORDER_TEXELS_BINDING] = v->border_texels };
+		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */ };
+		VkBufferView views[BINDINGS] = { [RECORDS_BINDING] = pool->block_view };
+		memcpy(views + FIRST_TEXELS_BINDING, v->texels, sizeof(v->texels));
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
 			{ VK_NULL_HANDLE, pool->heights, VK_IMAGE_LAYOUT_GENERAL },
@@ -157,10 +160,9 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	relief_vk_timer_finish(vk, &v->timer);
 	if (v->pool)
 		vkDestroyDescriptorPool(vk->device, v->pool, NULL);
-	if (v->instance_texels)
-		vkDestroyBufferView(vk->device, v->instance_texels, NULL);
-	if (v->border_texels)
-		vkDestroyBufferView(vk->device, v->border_texels, NULL);
+	for (uint32_t i = 0; i < VIEW_TEXELS; i++)
+		if (v->texels[i])
+			vkDestroyBufferView(vk->device, v->texels[i], NULL);
 	relief_vk_buffer_finish(vk, &v->split[0]);
 	relief_vk_buffer_finish(vk, &v->split[1]);
 	relief_vk_buffer_finish(vk, &v->instances);
