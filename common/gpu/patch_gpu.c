@@ -219,7 +219,8 @@ static int create_batches(struct relief_patch_cache *c)
 int patch_gpu_init(struct relief_patch_cache *c)
 {
 	int ret;
-	if ((ret = create_texel_views(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 || (ret = create_batches(c)) < 0)
+	if ((ret = create_texel_views(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 ||
+	    (ret = create_batches(c)) < 0)
 		return ret;
 	c->pool.block_view = c->errors_view;
 	return init_layouts(c);

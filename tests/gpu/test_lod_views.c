@@ -613,6 +613,41 @@ static void test_device_limits_named(void **state)
 	scene_close(&s);
 }
 
+/* Texel buffers (relief_vk_texel_view_create()): a view whose buffers hold more texels than
+ * maxTexelBufferElements is refused naming the limit, and a cache takes no more layers
+ * than its block records' texel view can hold, maxTexelBufferElements / the words of a
+ * layer's record (Puget Sound has 85 patches; the limit leaves room for 40). */
+static void test_texel_buffer_limits(void **state)
+{
+	struct scene s;
+	scene_open(&s, vk, DEM_PUGET, 1.0, 64, 64);
+	const VkPhysicalDeviceLimits saved = vk->props.limits;
+	const struct relief_logger saved_log = vk->log;
+	vk->log = (struct relief_logger){ keep_error, NULL };
+	limit_message[0] = '\0';
+	vk->props.limits.maxTexelBufferElements = 1;
+	struct relief_terrain_view *v = NULL;
+	assert_int_equal(relief_terrain_view_create(s.terrain, &v), -ENOTSUP);
+	assert_null(v);
+	print_message("limit 1: %s\n", limit_message);
+	assert_non_null(strstr(limit_message, "maxTexelBufferElements"));
+	vk->log = saved_log;
+	vk->props.limits = saved;
+	assert_int_equal(relief_terrain_view_create(s.terrain, &v), 0);
+	relief_terrain_view_destroy(v);
+
+	const size_t words = relief_patch_layer_floats(s.f->hdr.patch_size);
+	const struct relief_patch_cache_options o = { .budget_bytes = 64u << 20, .staging_slots = 2 };
+	struct relief_patch_cache *c = NULL;
+	vk->props.limits.maxTexelBufferElements = (uint32_t)(40 * words + words / 2);
+	int ret = relief_patch_cache_create(vk, s.f, &o, NULL, &c);
+	vk->props.limits = saved;
+	assert_int_equal(ret, 0);
+	assert_int_equal(relief_patch_cache_pool(c)->layers, 40);
+	relief_patch_cache_destroy(c);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
 
 int main(void)
 {
@@ -626,6 +661,7 @@ int main(void)
 		cmocka_unit_test(test_pass_timing),
 		cmocka_unit_test(test_view_allocations),
 		cmocka_unit_test(test_device_limits_named),
+		cmocka_unit_test(test_texel_buffer_limits),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }
