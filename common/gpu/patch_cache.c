@@ -119,8 +119,9 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	if (cap > drawable)
 		cap = drawable;
 	/* The block records are read as one uniform texel buffer (patch_gpu.c). */
-	if (cap > vk->props.limits.maxTexelBufferElements / c->layer_floats)
-		cap = (uint32_t)(vk->props.limits.maxTexelBufferElements / c->layer_floats);
+	const uint32_t texel_cap = (uint32_t)(vk->props.limits.maxTexelBufferElements / c->layer_floats);
+	if (cap > texel_cap)
+		cap = texel_cap;
 	if (c->o.max_layers && cap > c->o.max_layers)
 		cap = c->o.max_layers;
 	uint32_t n = layers_for_budget(c, cap);
