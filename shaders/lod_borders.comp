@@ -19,7 +19,7 @@ layout(std430, binding = 17) writeonly buffer Borders { uvec2 borders[]; };
 void main()
 {
 	uint per = 4u * pc.blocks + 4u, i = gl_GlobalInvocationID.x, slot = i / per, r = i % per;
-	if (slot >= counters.drawn_count)
+	if (slot >= counted_patches())
 		return;
 	Instance it = inst_at(slot);
 	int last = int(pc.P) - 1;

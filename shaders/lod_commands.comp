@@ -37,7 +37,7 @@ layout(std430, binding = 5) buffer Counters {
 layout(std430, binding = 8) writeonly buffer Cmds { DrawCmd cmds[]; };
 layout(binding = 11) uniform samplerBuffer block_records; // as in terrain_draw.glsl
 float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
-layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; vec4 draw_eye; };
+#include "draw_camera.glsl"
 
 layout(push_constant) uniform Push {
 	uint per_patch; // block quads per drawn patch (blocks^2)
@@ -153,12 +153,13 @@ void main()
 		s_found = 0u;
 	}
 	barrier();
-	vec2 eye = vec2(draw_eye.x, -draw_eye.y);
+	vec4 draw = draw_eye();
+	vec2 eye = vec2(draw.x, -draw.y);
 	for (uint i = gl_LocalInvocationIndex; i < counters.drawn; i += gl_WorkGroupSize.x)
 		blocks_near_eye(inst[i], eye);
 	barrier();
 	if (gl_LocalInvocationIndex == 0u) {
-		bool cull = s_found != 0u ? draw_eye.z > key_height(s_high) + pc.margin : pc.cpu_cull != 0u;
+		bool cull = s_found != 0u ? draw.z > key_height(s_high) + pc.margin : pc.cpu_cull != 0u;
 		counters.face_culled = cull ? 1u : 0u;
 		counters.found = s_found;
 		counters.near_high = key_height(s_high);

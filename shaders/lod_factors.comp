@@ -42,13 +42,14 @@ void seal_corner(uint slot, vec2 s[4], inout uvec4 seal)
 // BLOCK_UNSEEN, all eight corners beyond one plane moved out by 0.1 % (the box is convex,
 // so the block shows nothing; no sliver it shows can be culled); BLOCK_INSIDE, every
 // corner within every plane moved in by 0.1 %, and 0.1 % of the distance before the far
-// plane (draw_eye.w; reversed depth nears 0 there, so a margin relative to w would reach
+// plane (draw_eye().w; reversed depth nears 0 there, so a margin relative to w would reach
 // deep into the frustum): the rasteriser clips nothing the block draws, unless a seal or
 // a curtain reaches beyond its box; BLOCK_CROSSING otherwise.
 const uint BLOCK_UNSEEN = 0u, BLOCK_CROSSING = 1u, BLOCK_INSIDE = 2u;
 uint block_clip(Instance it, vec2 lo, vec2 range)
 {
-	mat4 m = draw_vp; // one read of the buffer (a CPU implementation loads it lane by lane)
+	mat4 m = draw_vp();
+	float far_z = draw_eye().w;
 	vec4 c0 = m * vec4(pos_of(it, ivec2(lo), range.x), 1.0);
 	float side = float(int(BLOCK_CELLS) * it.scale);
 	vec4 ex = m[0] * (side * it.spacing.x), ey = m[1] * (-side * it.spacing.y), ez = m[2] * (range.y - range.x);
@@ -59,7 +60,7 @@ uint block_clip(Instance it, vec2 lo, vec2 range)
 		float wo = 1.001 * p.w, wi = 0.999 * p.w;
 		outside &= (p.x < -wo ? 1u : 0u) | (p.x > wo ? 2u : 0u) | (p.y < -wo ? 4u : 0u) | (p.y > wo ? 8u : 0u) |
 		           (p.z < -0.001 * p.w ? 16u : 0u) | (p.z > wo ? 32u : 0u);
-		inside = inside && p.w > 0.0 && abs(p.x) < wi && abs(p.y) < wi && p.z > draw_eye.w && p.z < wi;
+		inside = inside && p.w > 0.0 && abs(p.x) < wi && abs(p.y) < wi && p.z > far_z && p.z < wi;
 	}
 	return outside != 0u ? BLOCK_UNSEEN : inside ? BLOCK_INSIDE : BLOCK_CROSSING;
 }
@@ -105,7 +106,6 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		// Edges in the order of the outer factors: west, north, east, south.
 		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
 		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
-		const ivec3 along[4] = ivec3[4](ivec3(0, 3, 6), ivec3(0, 1, 2), ivec3(2, 5, 8), ivec3(6, 7, 8));
 		// Edges on the patch's border first: lod_borders.comp has their factors and seals.
 		float f[4];
 		uint m[4];
@@ -150,15 +150,9 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			vec4 eps = max(edge_eps_at(it.layer, bl, uint(i), e),
 			               edge_eps_at(it.layer, nb, uint(i + 2) % 4u, block_eps(it, nb.x, nb.y)));
 			vec2 rn = block_range_at(it.layer, nb), er = vec2(min(range.x, rn.x), max(range.y, rn.y));
-			float eh = check_height(er);
-			if (errors && eh == h) {
-				vec4 pts[3] = vec4[3](pt[along[i].x], pt[along[i].y], pt[along[i].z]);
-				f[i] = error_factor(pts, 3, eps, m[i]);
-			} else {
-				vec2 a, c;
-				block_edge(bl, sides[i], a, c);
-				f[i] = edge_factor(it, a, c, eps, er, m[i]);
-			}
+			vec2 a, c;
+			block_edge(bl, sides[i], a, c);
+			f[i] = edge_factor(it, a, c, eps, er, m[i]);
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		morph.x = m[0] | (m[1] << 8u) | (m[2] << 16u) | (m[3] << 24u);
@@ -192,7 +186,7 @@ layout(std430, binding = 16) writeonly buffer Seals { uvec4 seals[]; };
 void main()
 {
 	uint q = gl_GlobalInvocationID.x;
-	if (q >= counters.drawn_count * pc.per_patch + counters.curtains * pc.blocks)
+	if (q >= counted_patches() * pc.per_patch + counted_curtains() * pc.blocks)
 		return;
 	uint slot, k;
 	quad_of(q, slot, k);
@@ -208,7 +202,7 @@ void main()
 	// A drawn quad that the rasteriser may clip goes to the clipped list (w = 1) when back
 	// faces are culled: the other pipeline draws it (docs/lod.md, "Back faces"), and
 	// lod_commands.comp lists it.
-	bool listed = counters.draw_culled != 0u && ob.x != 0u && !inside;
+	bool listed = draw_culled() && ob.x != 0u && !inside;
 	factors[q] = uvec4(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u) | (m.y << 16u), m.x,
 	                   listed ? 1u : 0u);
 }

@@ -28,7 +28,6 @@
 // forced: nothing is drawn there.
 layout(local_size_x = 256) in;
 
-layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
 // Bit 0 read; bit 1 set here and read by the other invocations within the sweep after it.
 layout(std430, binding = 2) coherent buffer SplitPrev { uint split_prev[]; };
 
@@ -52,10 +51,10 @@ bool wants(uint l, uint x, uint y)
 bool chain_beside(uint e)
 {
 	uint l = 1u;
-	while (window[l + 1u].z <= e)
+	while (window_at(l + 1u).z <= e)
 		l++;
-	uint side_n = 1u << l, local = e - window[l].z;
-	ivec2 p = ivec2(local % window[l].x, local / window[l].x);
+	uint side_n = 1u << l, local = e - window_at(l).z;
+	ivec2 p = ivec2(local % window_at(l).x, local / window_at(l).x);
 	const ivec2 dirs[4] = ivec2[4](ivec2(0, -1), ivec2(0, 1), ivec2(-1, 0), ivec2(1, 0)); // north, south, west, east
 	for (uint s = 0u; s < 4u; s++) {
 		ivec2 q = p + dirs[s];
@@ -85,7 +84,7 @@ void main()
 {
 	if (pc.levels < 7u)
 		return;
-	uint end = window[pc.levels - 5u].z; // entries of levels 1 .. L - 6 from window[1].z
+	uint end = window_at(pc.levels - 5u).z; // entries of levels 1 .. L - 6 from window_at(1).z
 	for (;;) {
 		if (gl_LocalInvocationIndex == 0u)
 			forced_now = 0u;

@@ -26,8 +26,6 @@
 // before it starts the next.
 layout(local_size_x = 64) in;
 
-layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
-layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
 layout(std430, binding = 2) readonly buffer SplitPrev { uint split_prev[]; };
 layout(std430, binding = 3) writeonly buffer SplitNext { uint split_next[]; };
 layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
@@ -39,7 +37,7 @@ layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
 layout(std430, binding = 18) buffer UseDist { uint use_dist[]; };
 layout(std430, binding = 12) writeonly buffer Drawn { uint drawn[]; }; // this view, this frame; cleared before
 layout(std430, binding = 14) writeonly buffer Curtains { uint curtain[]; }; // sides on the terrain's edge
-// Level l's frontier at [window[l].z, window[l].z + its count), at most the level's entries
+// Level l's frontier at [window_at(l).z, window_at(l).z + its count), at most the level's entries
 // (patch_entry.glsl: EMPTY children without one are not pushed): (id | 1 << 31 when every
 // ancestor is resident with its children there, distance to the parent's box as float bits).
 layout(std430, binding = 20) buffer Frontier { uvec2 frontier[]; };
@@ -76,7 +74,7 @@ bool wants_split(uint l, uint e, float d)
 // outside its window (never missing, never drawn).
 uint child_entry(uint l, uvec2 p, uint k) { return entry_at(l + 1u, ivec2(2u * p + uvec2(k & 1u, k >> 1u))); }
 
-bool child_missing(uint c) { return c != NO_ENTRY && info[c].skirt >= 0.0 && layer_of[c] < 0; }
+bool child_missing(uint c) { return c != NO_ENTRY && info_at(c).skirt >= 0.0 && layer_at(c) < 0; }
 
 // Appends the children of a patch of level l that have entries (ce: their entries, ids: their
 // ids, row-major) to level l + 1's frontier.
@@ -87,7 +85,7 @@ void push_children(uint l, uint ce[4], uint ids[4], bool reachable, float d)
 		m += ce[k] != NO_ENTRY ? 1u : 0u;
 	uint n = atomicAdd(passes[l + 1u].w, m);
 	atomicMax(passes[l + 1u].x, (n + m + 63u) / 64u);
-	uint at = window[l + 1u].z + n;
+	uint at = window_at(l + 1u).z + n;
 	uint mark = reachable ? 0x80000000u : 0u, dist = floatBitsToUint(d);
 	for (uint k = 0u; k < 4u; k++)
 		if (ce[k] != NO_ENTRY)
@@ -99,7 +97,7 @@ void main()
 	uint l = pc.level;
 	if (gl_GlobalInvocationID.x >= passes[l].w)
 		return;
-	uvec2 f = frontier[window[l].z + gl_GlobalInvocationID.x];
+	uvec2 f = frontier[window_at(l).z + gl_GlobalInvocationID.x];
 	uint id = f.x & 0x7fffffffu;
 	uint local = id - first_id(l), side = 1u << l;
 	uint px = local % side, py = local / side;
@@ -118,13 +116,13 @@ void main()
 	// A wanted patch is in use even when not drawn (its siblings may still be missing): so
 	// that a cache short of layers does not evict it to make room for its siblings, and
 	// then again them for it, every frame.
-	if (layer_of[e] >= 0) {
+	if (layer_at(e) >= 0) {
 		use_frame[e] = pc.frame;
 		atomicMin(use_dist[(pc.frame & 1u) * entry_count() + e], floatBitsToUint(parent_d));
 	}
 	if (culled(bmin, bmax))
 		return;
-	bool reachable = (f.x & 0x80000000u) != 0u && layer_of[e] >= 0;
+	bool reachable = (f.x & 0x80000000u) != 0u && layer_at(e) >= 0;
 	if (wish) {
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
 		uint ids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u), ce[4];
@@ -142,7 +140,7 @@ void main()
 	uint n = atomicAdd(counters.drawn, 1u);
 	Instance it;
 	it.id = id;
-	it.layer = layer_of[e];
+	it.layer = layer_at(e);
 	it.level = l;
 	float q2 = 2.0 * pc.delta_finest; // 2 delta_l = 2 delta_L ratio^(L - l), exact in float
 	for (uint k = l + 1u; k < pc.levels; k++)
@@ -151,8 +149,8 @@ void main()
 	int span = int(pc.P - 1u) << (pc.levels - 1u - l);
 	it.base = ivec2(int(px) * span, int(py) * span) - pc.cell;
 	it.scale = 1 << (pc.levels - 1u - l);
-	it.err = info[e].err;
-	it.skirt = info[e].skirt;
+	it.err = info_at(e).err;
+	it.skirt = info_at(e).skirt;
 	it.px = px;
 	it.py = py;
 	it.pad = 0.0;

@@ -16,7 +16,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 // Entries in the tree (patch_entry.glsl): the per-patch buffers' length.
-uint entry_count() { uvec4 w = window[pc.levels - 1u]; return w.z + w.x * w.y; }
+uint entry_count() { uvec4 w = window_at(pc.levels - 1u); return w.z + w.x * w.y; }
 
 // The box of the patch at (px, py) of level l, whose entry is e.
 void box(uint l, uint px, uint py, uint e, out vec3 bmin, out vec3 bmax)
@@ -26,8 +26,8 @@ void box(uint l, uint px, uint py, uint e, out vec3 bmin, out vec3 bmax)
 	precise float y0 = (float(int(py) * span - pc.cell.y) - pc.frac.y) * pc.spacing.y;
 	precise float w = float(span) * pc.spacing.x, h = float(span) * pc.spacing.y;
 	precise float x1 = x0 + w, y1 = y0 + h;
-	bmin = vec3(x0, -y1, info[e].hmin - pc.cam_z);
-	bmax = vec3(x1, -y0, info[e].hmax - pc.cam_z);
+	bmin = vec3(x0, -y1, info_at(e).hmin - pc.cam_z);
+	bmax = vec3(x1, -y0, info_at(e).hmax - pc.cam_z);
 }
 
 float distance_to(vec3 bmin, vec3 bmax)
@@ -44,6 +44,6 @@ bool wants_split_by(uint l, uint e, float d, uint prev)
 {
 	if (l + 1u >= pc.levels)
 		return false;
-	precise float err = d > 0.0 ? info[e].err * pc.kappa / d : 1.0 / 0.0;
+	precise float err = d > 0.0 ? info_at(e).err * pc.kappa / d : 1.0 / 0.0;
 	return (prev & 2u) != 0u || err > pc.tau || ((prev & 1u) != 0u && err > 0.8 * pc.tau);
 }

@@ -1,20 +1,17 @@
 // Bindings, push constants and helpers of the terrain draw stages (common/gpu/terrain_internal.h).
 // Needs patch_entry.glsl (per-patch buffers by entry).
-layout(std430, binding = 0) readonly buffer Info { PatchInfo info[]; };
-layout(std430, binding = 1) readonly buffer Layers { int layer_of[]; };
-layout(std430, binding = 5) readonly buffer Counters {
-	uint drawn_count; uint draws; uint wants; uint curtains;
-	uvec4 factor_groups, border_groups;
-	uint face_culled; uint found; float near_high;
-	uint draw_culled; // back faces culled in this frame's draws (lod_commands.comp)
-} counters;
-layout(std430, binding = 12) readonly buffer Drawn { uint drawn[]; }; // by this view, this frame, by entry
-layout(std430, binding = 14) readonly buffer Curtains { uint curtain[]; };
-// The view-projection the picture is drawn with; equal to pc.vp unless the level of detail
-// was chosen for another camera (relief_draw_options.lod_view). pc.vp stays the LOD's.
-// draw_eye: the drawing camera's eye (lod_commands.comp, back faces); w: the clip-space z
-// 0.1 % nearer than the far plane (lod_factors.comp, block_clip()).
-layout(std430, binding = 15) readonly buffer DrawCamera { mat4 draw_vp; vec4 draw_eye; };
+// What the selection and lod_commands.comp wrote as storage buffers, read here as uniform
+// texel buffers (patch_entry.glsl says why; even a word every lane reads alike is a load per
+// lane from a storage buffer in lavapipe): the counters (binding 5 as R32_UINT texels,
+// binding 30; struct counters in common/gpu/terrain_internal.h), the drawn marks by entry
+// (binding 12 as 29) and the curtains, the terrain-edge sides of drawn patches (14 as 31).
+layout(binding = 30) uniform usamplerBuffer counter_texels;
+layout(binding = 29) uniform usamplerBuffer drawn_texels;
+layout(binding = 31) uniform usamplerBuffer curtain_texels;
+uint counted_patches() { return texelFetch(counter_texels, 0).x; }  // drawn patches
+uint counted_curtains() { return texelFetch(counter_texels, 3).x; } // curtains
+bool draw_culled() { return texelFetch(counter_texels, 15).x != 0u; } // back faces culled in this frame's draws
+#include "draw_camera.glsl"
 layout(binding = 9, r32i) uniform readonly iimage2DArray heights;
 layout(binding = 10, r32ui) uniform readonly uimage2DArray normals; // packSnorm4x8, see patch_normals.comp
 
@@ -111,7 +108,7 @@ uint neighbour_entry(Instance it, uint side)
 bool drawn_at(uint level, ivec2 q)
 {
 	uint e = entry_at(level, q);
-	return e != NO_ENTRY && drawn[e] != 0u;
+	return e != NO_ENTRY && texelFetch(drawn_texels, int(e)).x != 0u;
 }
 
 // For cell q of `level` (inside the terrain): when the patch there is not drawn but one of
@@ -178,13 +175,13 @@ float coarser_q2(Instance it, uint j)
 // quads.
 void quad_of(uint q, out uint slot, out uint k)
 {
-	uint block_quads = counters.drawn_count * pc.per_patch;
+	uint block_quads = counted_patches() * pc.per_patch;
 	if (q < block_quads) {
 		slot = q / pc.per_patch;
 		k = q % pc.per_patch;
 		return;
 	}
-	uint c = (q - block_quads) / pc.blocks, rec = curtain[c];
+	uint c = (q - block_quads) / pc.blocks, rec = texelFetch(curtain_texels, int(c)).x;
 	slot = rec & CURTAIN_SLOT_MASK;
 	k = pc.per_patch + (rec >> 30u) * pc.blocks + (q - block_quads) % pc.blocks;
 }

@@ -215,11 +215,11 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout vec2 range)
 {
 	uint ne = neighbour_entry(it, side);
-	if (ne == NO_ENTRY || layer_of[ne] < 0)
+	if (ne == NO_ENTRY || layer_at(ne) < 0)
 		return;
 	ivec2 across = border_block(side ^ 1u, side >= 2u ? bl.y : bl.x); // its block facing bl
-	eps = max(eps, edge_eps_at(layer_of[ne], across, edge_of_side(side ^ 1u), block_eps_at(layer_of[ne], across)));
-	vec2 r = block_range_at(layer_of[ne], across);
+	eps = max(eps, edge_eps_at(layer_at(ne), across, edge_of_side(side ^ 1u), block_eps_at(layer_at(ne), across)));
+	vec2 r = block_range_at(layer_at(ne), across);
 	range = vec2(min(range.x, r.x), max(range.y, r.y));
 }
 

@@ -20,7 +20,7 @@ uint finer_across(Instance it, ivec2 bl, uint side)
 	uint found = 0u;
 	for (uint j = 1u;; j++) {
 		uint l = it.level + j;
-		if (l >= uint(window.length()) || window[l].x == 0u)
+		if (l >= window_count() || window_at(l).x == 0u)
 			break; // finer than the finest level
 		// cells per side at level l; those along bl: a0 .. a0 + n - 1
 		int m = 1 << j, a0 = along * m / b, n = max(m / b, 1);
@@ -72,9 +72,9 @@ Instance coarser_instance(Instance it, uint ce, uint j, ivec2 q)
 {
 	Instance c = coarser_at(it, j, q);
 	c.id = first_id(c.level) + uint(q.y) * (1u << c.level) + uint(q.x);
-	c.layer = layer_of[ce];
-	c.err = info[ce].err;
-	c.skirt = info[ce].skirt;
+	c.layer = layer_at(ce);
+	c.err = info_at(ce).err;
+	c.skirt = info_at(ce).skirt;
 	return c;
 }
 
@@ -92,7 +92,7 @@ uint coarser_edge(Instance it, ivec2 bl, uint side, out float fc, out int clayer
 	cmorph = MORPH_FULL;
 	if (j == 0u)
 		return 0u;
-	clayer = layer_of[ce];
+	clayer = layer_at(ce);
 	ivec2 q = neighbour_at(it, side) >> j;
 	Instance c = coarser_instance(it, ce, j, q);
 	int b = int(pc.blocks);

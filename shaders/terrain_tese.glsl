@@ -106,7 +106,7 @@ void main()
 	vec3 p = pos_of(it, si, h);
 	if (down > 0.0)
 		p.z -= down * it.skirt;
-	gl_Position = draw_vp * vec4(p, 1.0);
+	gl_Position = draw_vp() * vec4(p, 1.0);
 #ifdef RELIEF_MESH
 	out_grid = it.base + si * it.scale;
 	out_height = down > 0.0 ? h - down * it.skirt : h;

@@ -145,7 +145,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	    (ret = relief_vk_buffer_init(vk, &c->flags, sizeof(uint32_t) * c->o.staging_slots,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, RELIEF_VK_MEMORY_READBACK)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->layer_table, sizeof(int32_t) * c->count,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, RELIEF_VK_MEMORY_SHARED)) < 0 ||
+	                                 VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT, RELIEF_VK_MEMORY_SHARED)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->jobs, sizeof(struct job_params) * IN_FLIGHT * MAX_BATCH,
 	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, RELIEF_VK_MEMORY_UPLOAD)) < 0 ||
 	    (ret = relief_vk_buffer_init(vk, &c->use_table, sizeof(uint32_t) * c->count,
@@ -164,7 +164,7 @@ int relief_patch_cache_create(struct relief_vk *vk, const struct relief_file *f,
 	c->pool = (struct relief_patch_pool){
 		.heights = c->heights.view, .normals = c->normals.view, .block_errors = c->errors.buffer, .layers = n,
 		.layer_table = c->layer_table.buffer, .use_table = c->use_table.buffer, .use_dist = c->use_dist.buffer,
-		/* .block_view: patch_gpu_init() */
+		/* .block_view, .layer_view: patch_gpu_init() */
 	};
 	c->owner = malloc(sizeof(int32_t) * n);
 	c->free_layers = malloc(sizeof(uint32_t) * n);

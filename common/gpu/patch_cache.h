@@ -99,6 +99,7 @@ struct relief_patch_pool {
 	 * int32[index_records]: the layer of each resident patch, -1 otherwise; host-visible,
 	 * kept current by the cache, read by the LOD selection on the GPU. */
 	VkBuffer layer_table;
+	VkBufferView layer_view; /* the same as R32_SINT texels (a uniform texel buffer) */
 	/* uint32[index_records]: the last frame a view wanted each resident patch (drew it, or
 	 * would once its siblings arrive), written by the LOD selection on the GPU; eviction
 	 * treats it like relief_patch_cache_touch(). */

@@ -73,6 +73,7 @@ struct relief_patch_cache {
 	struct relief_vk_buffer jobs; /* job_params[IN_FLIGHT][MAX_BATCH] */
 	VkBufferView staging_view;    /* the staging buffer as R32_SINT texels (see patch_gpu.c) */
 	VkBufferView errors_view;     /* the block records as R32_SFLOAT texels, for the terrain (patch_gpu.c) */
+	VkBufferView layer_view;      /* the layer table as R32_SINT texels, for the terrain */
 	VkDescriptorSetLayout set_layout;
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;

@@ -14,10 +14,11 @@
  * pass's (the batch's end). */
 #define QUERIES 4
 
-/* The staging words and the block records as texel buffers (relief_vk_texel_view_create()
- * says why): the decode reads its staging slots, the terrain's border and factor passes
- * the block records, for every lane at once on a CPU implementation, where storage
- * buffer reads had made up most of those passes (docs/benchmarks.md, docs/lod.md). */
+/* The staging words, the block records and the layer table as texel buffers
+ * (relief_vk_texel_view_create() says why): the decode reads its staging slots, the
+ * terrain's passes the block records and the layer table, for every lane at once on a CPU
+ * implementation, where storage buffer reads had made up most of those passes
+ * (docs/benchmarks.md, docs/lod.md). */
 static int create_texel_views(struct relief_patch_cache *c)
 {
 	struct relief_vk *vk = c->vk;
@@ -32,6 +33,8 @@ static int create_texel_views(struct relief_patch_cache *c)
 		  "the staging buffer as R32_SINT storage texels", &c->staging_view },
 		{ &c->errors, VK_FORMAT_R32_SFLOAT, VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT,
 		  "the block records as R32_SFLOAT uniform texels", &c->errors_view },
+		{ &c->layer_table, VK_FORMAT_R32_SINT, VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT,
+		  "the layer table as R32_SINT uniform texels", &c->layer_view },
 	};
 	for (size_t i = 0; i < sizeof(v) / sizeof(v[0]); i++) {
 		int ret = relief_vk_texel_view_create(vk, v[i].b, v[i].format, 1, v[i].feature, v[i].view);
@@ -223,6 +226,7 @@ int patch_gpu_init(struct relief_patch_cache *c)
 	    (ret = create_batches(c)) < 0)
 		return ret;
 	c->pool.block_view = c->errors_view;
+	c->pool.layer_view = c->layer_view;
 	return init_layouts(c);
 }
 
@@ -252,6 +256,8 @@ void patch_gpu_finish(struct relief_patch_cache *c)
 		vkDestroyBufferView(vk->device, c->staging_view, NULL);
 	if (c->errors_view)
 		vkDestroyBufferView(vk->device, c->errors_view, NULL);
+	if (c->layer_view)
+		vkDestroyBufferView(vk->device, c->layer_view, NULL);
 }
 
 void patch_gpu_time(struct relief_patch_cache *c, const struct batch *b)

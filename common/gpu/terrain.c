@@ -56,14 +56,18 @@ static float skirt_depth(const struct relief_file *f, uint32_t id, const struct 
 
 /* The device limits the terrain needs beyond Vulkan's guaranteed minimums: every stage
  * sees the one descriptor set's STORAGE_BUFFERS storage buffers (the minimum per stage is 4;
- * desktop GPUs and lavapipe take thousands), and a frame may issue max_draws draw records.
- * -ENOTSUP, naming the limit, where the device has less. */
+ * desktop GPUs and lavapipe take thousands) and UNIFORM_TEXEL_BUFFERS uniform texel buffers,
+ * which count as sampled images (within the minimum of 16 per stage, checked all the same),
+ * and a frame may issue max_draws draw records. -ENOTSUP, naming the limit, where the
+ * device has less. */
 static int check_limits(struct relief_vk *vk, uint32_t max_draws)
 {
 	const VkPhysicalDeviceLimits *l = &vk->props.limits;
 	const struct { const char *name; uint32_t have, need; } req[] = {
 		{ "maxPerStageDescriptorStorageBuffers", l->maxPerStageDescriptorStorageBuffers, STORAGE_BUFFERS },
 		{ "maxDescriptorSetStorageBuffers", l->maxDescriptorSetStorageBuffers, STORAGE_BUFFERS },
+		{ "maxPerStageDescriptorSampledImages", l->maxPerStageDescriptorSampledImages, UNIFORM_TEXEL_BUFFERS },
+		{ "maxDescriptorSetSampledImages", l->maxDescriptorSetSampledImages, UNIFORM_TEXEL_BUFFERS },
 		{ "maxDrawIndirectCount", l->maxDrawIndirectCount, max_draws },
 	};
 	for (size_t i = 0; i < sizeof(req) / sizeof(req[0]); i++)
@@ -126,7 +130,7 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		info[e] = (struct patch_info){ r.height_min, r.height_max, r.draw_error, empty ? -1.0f : skirt_depth(f, id, &r) };
 	}
 	if ((ret = relief_vk_buffer_init(vk, &t->info, sizeof(*info) * t->count,
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
 	                                 RELIEF_VK_MEMORY_DEVICE)) == 0)
 		ret = relief_vk_buffer_upload(vk, &t->info, info, sizeof(*info) * t->count);
 	free(info);
@@ -140,9 +144,22 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		                                  in ? f->hdr.index_first[l] : t->count, 0 }, sizeof(windows[l]));
 	}
 	if ((ret = relief_vk_buffer_init(vk, &t->windows, sizeof(windows),
-	                                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+	                                 VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
 	                                 RELIEF_VK_MEMORY_DEVICE)) < 0 ||
 	    (ret = relief_vk_buffer_upload(vk, &t->windows, windows, sizeof(windows))) < 0)
+		goto fail;
+	/* Both read as texels (shaders/patch_entry.glsl says why). */
+	if ((ret = relief_vk_texel_view_create(vk, &t->info, VK_FORMAT_R32G32B32A32_SFLOAT, 4,
+	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &t->info_view)) < 0) {
+		if (ret == -ENOTSUP)
+			relief_log(&vk->log, RELIEF_LOG_ERROR,
+			           "terrain: the device cannot read the patch info of %u entries as uniform texels "
+			           "(maxTexelBufferElements %u)",
+			           t->count, vk->props.limits.maxTexelBufferElements);
+		goto fail;
+	}
+	if ((ret = relief_vk_texel_view_create(vk, &t->windows, VK_FORMAT_R32G32B32A32_UINT, 4,
+	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &t->windows_view)) < 0)
 		goto fail;
 
 	VkDescriptorSetLayoutBinding b[BINDINGS];
@@ -283,6 +300,10 @@ void relief_terrain_destroy(struct relief_terrain *t)
 			vkDestroyPipelineLayout(dev, layouts[i], NULL);
 	if (t->set_layout)
 		vkDestroyDescriptorSetLayout(dev, t->set_layout, NULL);
+	if (t->info_view)
+		vkDestroyBufferView(dev, t->info_view, NULL);
+	if (t->windows_view)
+		vkDestroyBufferView(dev, t->windows_view, NULL);
 	relief_vk_buffer_finish(t->vk, &t->info);
 	relief_vk_buffer_finish(t->vk, &t->windows);
 	free(t);

@@ -88,6 +88,10 @@ struct counters {
 	 * clipped list, and the quads in that list (all lod_commands.comp, phase 1) */
 	uint32_t draw_split[4];
 };
+/* The words shaders/terrain_draw.glsl reads as texels: drawn, curtains, draw_culled. */
+_Static_assert(offsetof(struct counters, drawn) == 0 && offsetof(struct counters, curtains) == 3 * 4 &&
+                       offsetof(struct counters, draw_culled) == 15 * 4,
+               "counter words");
 /* The per-view camera buffer (binding 15): the drawing view-projection, then the drawing
  * eye relative to the LOD camera (x east, y north) and its absolute height (z), and (w)
  * the clip-space z of a point 0.1 % nearer than the far plane (lod_factors.comp,
@@ -112,12 +116,14 @@ struct draw_camera {
 
 /* One descriptor set for every stage. Per-patch buffers have one element per entry, a
  * patch's record number in the file's index (relief_index_entry(); shaders/patch_entry.glsl).
- * Bindings: 0 patch info, 1 layer table, 2-3 split
+ * Bindings are storage buffers unless said otherwise: 0 patch info (RGBA32_SFLOAT uniform
+ * texels, t->info_view), 1 layer table (R32_SINT uniform texels, pool.layer_view), 2-3 split
  * state (this frame's input, output), 4 instances, 5 counters, 6 requests, 7 use table,
  * 8 draw records, 9 heights, 10 normals (storage images), 11 the layers' block records
  * (a uniform texel buffer, pool.block_view: patch_gpu.c says why), 12 drawn marks,
  * 13 tessellation factors and morph bytes (uvec4 per quad, lod_factors.comp), 14 curtains
- * (terrain-edge sides of drawn patches), 15 the draw camera's view-projection (float[16]),
+ * (terrain-edge sides of drawn patches), 15 the draw camera (struct draw_camera as
+ * RGBA32_SFLOAT uniform texels, v->camera_view; shaders/draw_camera.glsl),
  * 16 seal records (uvec4 per quad, terrain_seal.glsl),
  * 17 border records (uvec2 per drawn patch's border block edge and corner, lod_borders.comp),
  * 18 the cache's use distances (patch_cache.h, pool.use_dist),
@@ -125,26 +131,35 @@ struct draw_camera {
  * front, the clipped list, those the rasteriser may clip in a frame that culls back faces,
  * from the back; lod_commands.comp), 20 the selection's frontiers (uvec2 per patch, lod_select.comp),
  * 21 its passes (per level a VkDispatchIndirectCommand and the frontier's count),
- * 22 the index windows (per level: entry columns, rows, first entry, 0),
+ * 22 the index windows (per level: entry columns, rows, first entry, 0; RGBA32_UINT uniform
+ * texels, t->windows_view),
  * 23 the mesh capture (terrain_mesh.geom; written only once a view enables it, and read
  * only by the capture's pipelines); what the shaders read per lane as uniform texel buffers
  * (relief_vk_texel_view_create() says why) over buffers the compute passes write as the
  * storage buffers named in brackets: 24 the instances (4, RGBA32_UINT), 25 the border
  * records (17, RG32_UINT), 26 the factors (13, RGBA32_UINT), 27 the seal records (16,
- * RGBA32_UINT), 28 the quad lists (19, R32_UINT). */
-#define BINDINGS 29u
+ * RGBA32_UINT), 28 the quad lists (19, R32_UINT), 29 the drawn marks (12, R32_UINT), 30 the
+ * counters (5, R32_UINT), 31 the curtains (14, R32_UINT). No shader writes 0, 1, 15 or 22:
+ * they are texels only. */
+#define BINDINGS 32u
 #define MESH_BINDING 23u
 #define RECORDS_BINDING 11u
-#define FIRST_TEXELS_BINDING 24u /* 24-28: the views' texels */
+#define CAMERA_BINDING 15u
+#define INFO_BINDING 0u
+#define LAYERS_BINDING 1u
+#define WINDOWS_BINDING 22u
+#define FIRST_TEXELS_BINDING 24u /* 24-31: the views' texels */
 #define VIEW_TEXELS (BINDINGS - FIRST_TEXELS_BINDING)
-#define UNIFORM_TEXEL_BUFFERS (1u + VIEW_TEXELS)
+#define UNIFORM_TEXEL_BUFFERS (5u + VIEW_TEXELS) /* records, camera, info, layers, windows, the views' */
 #define STORAGE_BUFFERS (BINDINGS - 2u - UNIFORM_TEXEL_BUFFERS) /* all but the images and texel buffers */
 
 static inline VkDescriptorType binding_type(uint32_t i)
 {
-	return i == 9 || i == 10                             ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
-	       : i == RECORDS_BINDING || i >= FIRST_TEXELS_BINDING ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
-	                                                          : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+	return i == 9 || i == 10 ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
+	       : i == RECORDS_BINDING || i == CAMERA_BINDING || i == INFO_BINDING || i == LAYERS_BINDING ||
+	                       i == WINDOWS_BINDING || i >= FIRST_TEXELS_BINDING
+	               ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+	               : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
 /* One kind of frame's factor and border passes (lod_factors.comp, lod_borders.comp), made
@@ -167,6 +182,7 @@ struct relief_terrain {
 	const struct relief_file *file;
 	struct relief_patch_cache *cache;
 	struct relief_vk_buffer info, windows;
+	VkBufferView info_view, windows_view; /* bindings 0 and 22 (RGBA32F, RGBA32UI texels) */
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
@@ -195,6 +211,7 @@ struct relief_terrain_view {
 	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;
+	VkBufferView camera_view; /* binding 15: its five RGBA32F texels (shaders/draw_camera.glsl) */
 	/* What the CPU reads after a frame: counters and requests, copied at its end; the
 	 * drawn instances, copied when asked for (relief_terrain_view_drawn()) */
 	struct relief_vk_buffer read_counters, read_wants, read_instances;

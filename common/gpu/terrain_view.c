@@ -24,14 +24,14 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->split[1], 4 * t->count, storage },
 		{ &v->instances, sizeof(struct instance) * t->max_patches, storage | read | texels },
 		{ &v->cmds, 2 * 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
-		{ &v->counters, sizeof(struct counters), indirect | read },
+		{ &v->counters, sizeof(struct counters), indirect | read | texels },
 		{ &v->wants, sizeof(struct want) * WANT_CAP, storage | read },
-		{ &v->drawn, 4 * t->count, storage },
+		{ &v->drawn, 4 * t->count, storage | texels },
 		{ &v->factors, 16 * (VkDeviceSize)t->max_quads + 16, storage | texels },
 		{ &v->seals, 16 * (VkDeviceSize)t->max_quads + 16, storage | texels },
 		{ &v->borders, 8 * (VkDeviceSize)t->max_patches * (4 * t->blocks + 4), storage | texels },
-		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage },
-		{ &v->camera, sizeof(struct draw_camera), storage },
+		{ &v->curtains, 16 * (VkDeviceSize)t->max_patches + 4, storage | texels },
+		{ &v->camera, sizeof(struct draw_camera), texels | VK_BUFFER_USAGE_TRANSFER_DST_BIT },
 		{ &v->lists, 4 * (VkDeviceSize)t->max_quads, storage | texels },
 		{ &v->frontier, 8 * (VkDeviceSize)t->count, storage },
 		{ &v->passes, 16 * RELIEF_MAX_LEVELS, indirect },
@@ -51,7 +51,8 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	const struct { const struct relief_vk_buffer *b; VkFormat format; uint32_t components; } tx[VIEW_TEXELS] = {
 		{ &v->instances, VK_FORMAT_R32G32B32A32_UINT, 4 }, { &v->borders, VK_FORMAT_R32G32_UINT, 2 },
 		{ &v->factors, VK_FORMAT_R32G32B32A32_UINT, 4 },   { &v->seals, VK_FORMAT_R32G32B32A32_UINT, 4 },
-		{ &v->lists, VK_FORMAT_R32_UINT, 1 },
+		{ &v->lists, VK_FORMAT_R32_UINT, 1 },         { &v->drawn, VK_FORMAT_R32_UINT, 1 },
+		{ &v->counters, VK_FORMAT_R32_UINT, 1 },      { &v->curtains, VK_FORMAT_R32_UINT, 1 },
 	};
 	for (uint32_t i = 0; i < VIEW_TEXELS; i++)
 		if ((ret = relief_vk_texel_view_create(vk, tx[i].b, tx[i].format, tx[i].components,
@@ -64,6 +65,9 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 				           vk->props.limits.maxTexelBufferElements);
 			goto fail;
 		}
+	if ((ret = relief_vk_texel_view_create(vk, &v->camera, VK_FORMAT_R32G32B32A32_SFLOAT, 4,
+	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &v->camera_view)) < 0)
+		goto fail;
 	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 * 2 },
@@ -95,7 +99,9 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->lists.buffer,
 		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
 		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */ };
-		VkBufferView views[BINDINGS] = { [RECORDS_BINDING] = pool->block_view };
+		VkBufferView views[BINDINGS] = { [RECORDS_BINDING] = pool->block_view, [CAMERA_BINDING] = v->camera_view,
+			                         [INFO_BINDING] = t->info_view, [LAYERS_BINDING] = pool->layer_view,
+			                         [WINDOWS_BINDING] = t->windows_view };
 		memcpy(views + FIRST_TEXELS_BINDING, v->texels, sizeof(v->texels));
 		VkDescriptorBufferInfo bi[BINDINGS];
 		VkDescriptorImageInfo ii[2] = {
@@ -163,6 +169,8 @@ void relief_terrain_view_destroy(struct relief_terrain_view *v)
 	for (uint32_t i = 0; i < VIEW_TEXELS; i++)
 		if (v->texels[i])
 			vkDestroyBufferView(vk->device, v->texels[i], NULL);
+	if (v->camera_view)
+		vkDestroyBufferView(vk->device, v->camera_view, NULL);
 	relief_vk_buffer_finish(vk, &v->split[0]);
 	relief_vk_buffer_finish(vk, &v->split[1]);
 	relief_vk_buffer_finish(vk, &v->instances);

@@ -587,6 +587,8 @@ static void test_device_limits_named(void **state)
 	struct { const char *name; uint32_t *limit; } cases[] = {
 		{ "maxPerStageDescriptorStorageBuffers", &vk->props.limits.maxPerStageDescriptorStorageBuffers },
 		{ "maxDescriptorSetStorageBuffers", &vk->props.limits.maxDescriptorSetStorageBuffers },
+		{ "maxPerStageDescriptorSampledImages", &vk->props.limits.maxPerStageDescriptorSampledImages },
+		{ "maxDescriptorSetSampledImages", &vk->props.limits.maxDescriptorSetSampledImages },
 		{ "maxDrawIndirectCount", &vk->props.limits.maxDrawIndirectCount },
 	};
 	for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
