@@ -353,11 +353,11 @@ int bench_lod(int argc, char **argv)
 		{ "morphed", no_argument, NULL, 'M' }, { "recheck-all", no_argument, NULL, 'A' },
 		{ "loose", no_argument, NULL, 'L' },  { "trace-events", no_argument, NULL, 'E' },
 		{ "every-frame", required_argument, NULL, 'K' }, { "passes", no_argument, NULL, 'S' },
-		{ "help", no_argument, NULL, 'h' },
+		{ "validation", no_argument, NULL, 'V' },        { "help", no_argument, NULL, 'h' },
 		{ 0 },
 	};
 	bool json = false, unculled = false, morphed = false, recheck_all = false, loose = false, trace = false;
-	bool passes = false;
+	bool passes = false, validation = false;
 	uint32_t frames = 8, w = 480, h = 270, runs = 3, every = 0;
 	bool frames_given = false;
 	double taus[8] = { 0.5, 1, 2, 4, 8 }, targets[8] = { 0.5, 1, 2, 4, 8 };
@@ -398,11 +398,12 @@ int bench_lod(int argc, char **argv)
 		case 'A': recheck_all = true; break;
 		case 'E': trace = true; break;
 		case 'S': passes = true; break;
+		case 'V': validation = true; break;
 		case 'h':
 			printf("usage: relief bench lod FILE.relief [--json] [--frames N] [--runs N] [--size WxH]\n"
 			       "                        [--taus a,b,..] [--targets a,b,..] [--unculled] [--morphed]\n"
 			       "                        [--loose] [--recheck-all] [--trace-events] [--passes]\n"
-			       "                        [--every-frame K] [--device DEV]\n"
+			       "                        [--every-frame K] [--device DEV] [--validation]\n"
 			       "A fixed flight (default 8 key poses, each with the next frame at 250 m/s and 60 Hz,\n"
 			       "480x270) with relief's LOD at each tau (default 0.5,1,2,4,8 px) and the baselines\n"
 			       "full-grid, distance (target triangle widths, default 0.5,1,2,4,8 px) and chunked (each\n"
@@ -434,7 +435,8 @@ int bench_lod(int argc, char **argv)
 			       "sample (JSON popping_se_px: that part's standard error). Not with --frames.\n"
 			       "--passes: one more run of each configuration with a timestamp after each LOD pass\n"
 			       "(not in the times above: on a CPU device each timestamp costs time of its own): the\n"
-			       "median of each pass (setup, select, records, borders, factors, lists) and of their sum.\n");
+			       "median of each pass (setup, select, records, borders, factors, lists) and of their sum.\n"
+			       "--validation: the Khronos validation layer on (exit status 1 on any message).\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);
 		}
@@ -457,7 +459,7 @@ int bench_lod(int argc, char **argv)
 	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all, .trace_events = trace };
 	float *finest = NULL;
 	int status = 1, ret;
-	struct relief_vk_options vo = { .device = device, .log = &cli_log, .mesh_capture = true };
+	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log, .mesh_capture = true };
 	struct relief_patch_cache_options co = { .budget_bytes = 1ull << 30 };
 	struct config cfg[MAX_CONFIGS];
 	int n = 0;
@@ -483,8 +485,10 @@ int bench_lod(int argc, char **argv)
 			goto out;
 		}
 	}
-	if (r.gpu.vk->has.mesh_capture && (!(r.mesh = malloc(sizeof(*r.mesh) * 3 * (size_t)MESH_CAP)) ||
-	                                   !(r.mesh_quads = malloc(sizeof(*r.mesh_quads) * (size_t)MESH_CAP)))) {
+	r.mesh_cap = relief_terrain_mesh_limit(r.gpu.vk);
+	r.mesh_cap = r.mesh_cap < MESH_CAP ? r.mesh_cap : MESH_CAP;
+	if (r.gpu.vk->has.mesh_capture && (!(r.mesh = malloc(sizeof(*r.mesh) * 3 * (size_t)r.mesh_cap)) ||
+	                                   !(r.mesh_quads = malloc(sizeof(*r.mesh_quads) * (size_t)r.mesh_cap)))) {
 		fprintf(stderr, "relief bench lod: out of memory\n");
 		goto out;
 	}
@@ -551,6 +555,8 @@ int bench_lod(int argc, char **argv)
 		passes_print_text(cfg, res, n);
 	status = 0;
 out:
+	if (r.gpu.vk && r.gpu.vk->validation && atomic_load(&r.gpu.vk->validation_messages))
+		status = 1;
 	if (r.gpu.vk)
 		relief_vk_target_finish(r.gpu.vk, &r.fine);
 	tool_renderer_finish(&r.gpu);

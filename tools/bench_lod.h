@@ -54,7 +54,7 @@ struct result {
 	/* Triangle by triangle (relief_mesh_error(), over the analysed run's frames): the
 	 * largest error, that of transition triangles, that of regular triangles above full
 	 * resolution against the worse diagonal; transition triangles per frame; -1 where not
-	 * measured (no capture on this device, or a frame drew more than MESH_CAP triangles);
+	 * measured (no capture on this device, or a frame drew more than run.mesh_cap triangles);
 	 * the largest error of the kinds COARSE_EDGE, FINE_EDGE and FAN, and the triangles of
 	 * kind OTHER or UNKNOWN over all frames */
 	double mesh_max, mesh_transition, mesh_regular_worse, transitions;
@@ -62,7 +62,8 @@ struct result {
 	/* --every-frame: popping, camera popping and shade popping over every pair of the line */
 	struct bench_flight_mean every[3];
 };
-/* Triangles one frame's mesh capture holds (64 bytes each on the device, 96 on the CPU). */
+/* Triangles one frame's mesh capture holds at most (64 bytes each on the device, 96 on the
+ * CPU); less where the device's storage buffers hold less (run.mesh_cap). */
 #define MESH_CAP (1u << 22)
 
 /* The full-resolution render's own error at a pixel is 0.01 px or less at 99.9 % of pixels;
@@ -75,9 +76,11 @@ struct run {
 	const float *finest;
 	uint32_t fw, fh, frames;
 	struct relief_view *views;
-	/* the mesh capture's triangles (MESH_CAP), or NULL when the device has no capture */
+	/* the mesh capture's triangles (mesh_cap: MESH_CAP, or relief_terrain_mesh_limit() if
+	 * less), or NULL when the device has no capture */
 	struct relief_mesh_vertex *mesh;
 	struct relief_mesh_quad *mesh_quads;
+	uint32_t mesh_cap;
 	/* three times the frame's width and height, for rechecks; recheck_all: every pixel */
 	struct relief_vk_target fine;
 	bool recheck_all;

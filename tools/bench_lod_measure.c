@@ -138,11 +138,11 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 	int ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st);
 	if (ret < 0)
 		return ret;
-	int64_t n = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
+	int64_t n = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, r->mesh_cap);
 	if (n < 0)
 		return (int)n;
 	*captured = n;
-	if (n > MESH_CAP || res->mesh_max < 0) {
+	if (n > r->mesh_cap || res->mesh_max < 0) {
 		mesh_unmeasured(res);
 		return 0;
 	}
@@ -202,11 +202,11 @@ static double colour_change(const uint8_t *a, const uint8_t *b, const float *da,
 }
 
 /* The quads of the n triangles a capture drew (r->mesh_quads) into qs, emptied first; *ok
- * false when they were not all kept (a frame over MESH_CAP triangles). */
+ * false when they were not all kept (a frame over r->mesh_cap triangles). */
 static int capture_quads(struct run *r, int64_t n, struct mesh_quads *qs, bool *ok)
 {
 	mesh_quads_finish(qs);
-	*ok = n <= MESH_CAP;
+	*ok = n <= r->mesh_cap;
 	return *ok ? mesh_quads_init(qs, r->mesh_quads, (uint64_t)n) : 0;
 }
 
@@ -243,7 +243,7 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
 	if (ret == 0 && analyse && r->mesh)
-		ret = relief_terrain_view_mesh_enable(tv, MESH_CAP);
+		ret = relief_terrain_view_mesh_enable(tv, r->mesh_cap);
 	if (analyse && !r->mesh)
 		mesh_unmeasured(res);
 	double tri = 0, quads = 0, patches = 0, shade_sum = 0;
@@ -277,7 +277,7 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 			if ((ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st)) < 0)
 				break;
 			if (r->mesh) {
-				int64_t n_frozen = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, MESH_CAP);
+				int64_t n_frozen = relief_terrain_view_mesh(tv, r->mesh, r->mesh_quads, r->mesh_cap);
 				if ((ret = n_frozen < 0 ? (int)n_frozen : capture_quads(r, n_frozen, &frozen_quads, &frozen_captured)) < 0)
 					break;
 			}

@@ -65,7 +65,9 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 		fprintf(stderr, "relief snap: --exact: this device has no geometry shaders that store to buffers\n");
 		return -ENOTSUP;
 	}
+	const uint32_t limit = relief_terrain_mesh_limit(g->vk); /* the device's storage buffers */
 	uint32_t cap = triangles > 0 && triangles < (1u << 26) ? (uint32_t)triangles + 1024 : 1u << 22;
+	cap = cap < limit ? cap : limit;
 	float *finest = malloc(sizeof(float) * fw * fh);
 	struct relief_mesh_vertex *tri = NULL;
 	struct relief_mesh_quad *quads = NULL;
@@ -88,12 +90,17 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 			break;
 		if (n <= cap)
 			break;
-		cap = n < (1 << 26) ? (uint32_t)n : 1u << 26;
+		if (cap == limit)
+			break; /* no more room on this device: -E2BIG below */
+		cap = n < limit ? (uint32_t)n : limit;
 	}
 	if (ret >= 0 && n < 0)
 		ret = (int)n;
-	if (ret >= 0 && n > cap)
+	if (ret >= 0 && n > cap) {
+		fprintf(stderr, "relief snap: --exact: the frame draws %lld triangles, more than one capture holds on this device (%u)\n",
+		        (long long)n, cap);
 		ret = -E2BIG;
+	}
 	if (ret < 0) {
 		fprintf(stderr, "relief snap: --exact: %s\n", strerror(-ret));
 	} else {

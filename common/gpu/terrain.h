@@ -150,8 +150,13 @@ int relief_terrain_view_drawn(struct relief_terrain_view *v, uint32_t *ids, uint
  * changes it). A frame drawn with relief_draw_options.mesh then goes through pipelines
  * that also store each triangle the tessellator makes (a geometry shader that passes it
  * on unchanged: the same picture, at some cost). -ENOTSUP without geometry shaders that
- * store to buffers (vk->has.mesh_capture), -EBUSY while a frame is in flight. */
+ * store to buffers (vk->has.mesh_capture), -EBUSY while a frame is in flight, -E2BIG for
+ * more than relief_terrain_mesh_limit() triangles. */
 int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_triangles);
+/* The most triangles a mesh capture holds on this device: its buffer is one storage
+ * buffer binding, at most maxStorageBufferRange bytes (2^27 on lavapipe: about 2.1 million
+ * triangles). */
+uint32_t relief_terrain_mesh_limit(const struct relief_vk *vk);
 /* The triangles of the view's last frame drawn with relief_draw_options.mesh (3 vertices
  * each in `out`, in drawing order, and, unless `quads` is NULL, the quad each was drawn in),
  * up to cap of them: returns the number that frame drew, which may be more than cap or

@@ -7,6 +7,16 @@
 #include "pipeline.h"
 #include "terrain_internal.h"
 
+/* Bytes per captured triangle: three vertices and the quad, a uvec4 each (terrain_mesh.geom). */
+#define MESH_TRIANGLE_BYTES 64u
+
+uint32_t relief_terrain_mesh_limit(const struct relief_vk *vk)
+{
+	const uint64_t range = vk->props.limits.maxStorageBufferRange;
+	const uint64_t n = range > sizeof(struct mesh_header) ? (range - sizeof(struct mesh_header)) / MESH_TRIANGLE_BYTES : 0;
+	return n < UINT32_MAX / 4 ? (uint32_t)n : UINT32_MAX / 4; /* the shader's index 4 k + 3 */
+}
+
 int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_triangles)
 {
 	struct relief_terrain *t = v->t;
@@ -15,11 +25,13 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
 		return -ENOTSUP;
 	if (v->pending)
 		return -EBUSY;
-	if (max_triangles == 0 || max_triangles > UINT32_MAX / 4) /* the shader's index 4 k + 3 */
+	if (max_triangles == 0)
 		return -EINVAL;
+	if (max_triangles > relief_terrain_mesh_limit(vk))
+		return -E2BIG;
 	int ret;
 	struct relief_vk_buffer b = { 0 };
-	const VkDeviceSize size = sizeof(struct mesh_header) + 64 * (VkDeviceSize)max_triangles;
+	const VkDeviceSize size = sizeof(struct mesh_header) + MESH_TRIANGLE_BYTES * (VkDeviceSize)max_triangles;
 	if ((ret = relief_vk_buffer_init(vk, &b, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
 	                                 RELIEF_VK_MEMORY_READBACK)) < 0)
 		return ret;

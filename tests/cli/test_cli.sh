@@ -358,7 +358,7 @@ check bench-codec-out-of-range 2 "$relief" bench codec "$data/luxembourg_elev.ti
 expect_text bench-codec-out-of-range-named "--tolerances: 0 is outside [0.0001, 10000]"
 check hello-signed-size 2 "$relief" hello --size +48x32
 expect_text hello-signed-size-named "--size: '+48x32' is not WIDTHxHEIGHT"
-vkcheck bench-lod 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 2 --size 64x36 --taus 1 --targets 4 --json
+vkcheck bench-lod 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 2 --size 64x36 --taus 1 --targets 4 --json --validation
 n=$(grep -c '"method":' <<<"$LAST_OUT")
 [ "$n" -eq 4 ] || { echo "FAIL bench lod records: $n"; fails=$((fails + 1)); }
 expect_text bench-lod-fields '"method":"relief","tau_px":1,"gpu_ms_median":'
