@@ -27,7 +27,6 @@
 layout(local_size_x = 64) in;
 
 struct DrawCmd { uint vertex_count, instance_count, first_vertex, first_instance; };
-layout(std430, binding = 4) readonly buffer Instances { Instance inst[]; };
 layout(std430, binding = 5) buffer Counters {
 	uint drawn; uint draws; uint wants; uint curtains;
 	uvec4 factor_groups, border_groups;
@@ -35,8 +34,7 @@ layout(std430, binding = 5) buffer Counters {
 	uvec4 draw_split;
 } counters;
 layout(std430, binding = 8) writeonly buffer Cmds { DrawCmd cmds[]; };
-layout(binding = 11) uniform samplerBuffer block_records; // as in terrain_draw.glsl
-float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
+#include "terrain_texels.glsl"
 #include "draw_camera.glsl"
 
 layout(push_constant) uniform Push {
@@ -55,7 +53,10 @@ layout(std430, binding = 19) writeonly buffer Lists { uint lists[]; };
 
 shared uint s_high; // largest block height near the eye, as an ordered key (height_key)
 shared uint s_found;
-shared uvec2 s_counts[64]; // per lane, its run's shown and clipped quads (phase 1)
+// Per lane, its run's shown and clipped quads, then where its run's go in each list, and
+// their totals (phase 1).
+shared uvec2 s_counts[64];
+shared uvec2 s_total;
 
 // Float bits as an unsigned key that orders like the floats (for atomicMax).
 uint height_key(float h)
@@ -118,11 +119,20 @@ void lists_write(uint total)
 	}
 	s_counts[lane] = n;
 	barrier();
-	uvec2 at = uvec2(0u), all = uvec2(0u);
-	for (uint j = 0u; j < 64u; j++) {
-		at += j < lane ? s_counts[j] : uvec2(0u);
-		all += s_counts[j];
+	// The exclusive prefix sums by one lane: a CPU implementation runs a loop in every lane
+	// (64 x 64 shared loads) however few lanes need it, and this took three quarters of the
+	// pass on lavapipe (docs/lod.md, "The draw camera and the per-patch tables read as texels").
+	if (lane == 0u) {
+		uvec2 sum = uvec2(0u);
+		for (uint j = 0u; j < 64u; j++) {
+			uvec2 c = s_counts[j];
+			s_counts[j] = sum;
+			sum += c;
+		}
+		s_total = sum;
 	}
+	barrier();
+	uvec2 at = s_counts[lane], all = s_total;
 	uint back = uint(lists.length()) - 1u;
 	for (uint q = q0; q < q1; q++) {
 		uvec4 f = texelFetch(factor_texels, int(q));
@@ -156,7 +166,7 @@ void main()
 	vec4 draw = draw_eye();
 	vec2 eye = vec2(draw.x, -draw.y);
 	for (uint i = gl_LocalInvocationIndex; i < counters.drawn; i += gl_WorkGroupSize.x)
-		blocks_near_eye(inst[i], eye);
+		blocks_near_eye(inst_at(i), eye);
 	barrier();
 	if (gl_LocalInvocationIndex == 0u) {
 		bool cull = s_found != 0u ? draw.z > key_height(s_high) + pc.margin : pc.cpu_cull != 0u;

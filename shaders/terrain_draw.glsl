@@ -17,26 +17,7 @@ layout(binding = 10, r32ui) uniform readonly uimage2DArray normals; // packSnorm
 
 // The normal (xyz) and validity (w: 1 valid, -1 no-data) of sample si of layer `layer`.
 vec4 normal_load(ivec2 si, int layer) { return unpackSnorm4x8(imageLoad(normals, ivec3(si, layer)).x); }
-// The layers' block records (block_record.glsl), read as R32_SFLOAT texels: a CPU
-// implementation gathers a texel buffer's loads for all lanes at once, where it loads a
-// storage buffer lane by lane (common/gpu/patch_gpu.c).
-layout(binding = 11) uniform samplerBuffer block_records;
-float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
-// The instances (binding 4, written by lod_select.comp) as RGBA32_UINT texels, four an
-// instance in instance_pack()'s order, which is their memory order: for the passes that
-// read them per lane, as the block records above.
-layout(binding = 24) uniform usamplerBuffer instance_texels;
-void inst_texels_at(uint slot, out uvec4 p[4])
-{
-	for (int j = 0; j < 4; j++)
-		p[j] = texelFetch(instance_texels, 4 * int(slot) + j);
-}
-Instance inst_at(uint slot)
-{
-	uvec4 p[4];
-	inst_texels_at(slot, p);
-	return instance_unpack(p);
-}
+#include "terrain_texels.glsl"
 
 layout(push_constant) uniform DrawPush {
 	mat4 vp;          // camera-relative view-projection
