@@ -13,7 +13,7 @@ layout(location = 3) in float in_down[];
 layout(location = 2) out vec2 out_s[];
 layout(location = 3) out float out_down[];
 layout(location = 4) patch out uvec4 out_seal; // terrain_seal.glsl
-layout(location = 5) patch out uvec4 out_inst[4]; // the quad's patch instance (instance_pack)
+layout(location = 5) patch out uvec4 out_inst[4]; // the quad's patch instance (instance_unpack())
 layout(location = 9) patch out uvec3 out_factors; // the quad's factors[] record (lod_factors.comp)
 // lod_factors.comp's factors and seal records (bindings 13 and 16) as RGBA32_UINT texels
 // (terrain_internal.h says why).
@@ -37,5 +37,5 @@ void main()
 	gl_TessLevelInner[1] = byte_of(f.y, 1u);
 	out_seal = texelFetch(seal_texels, int(in_quad[0]));
 	out_factors = f.xyz;
-	inst_texels_at(in_slot[0], out_inst); // instance_pack()'s order
+	inst_texels_at(in_slot[0], out_inst); // memory order, as instance_unpack() takes it
 }

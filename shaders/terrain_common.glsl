@@ -19,17 +19,10 @@ struct Instance {
 	vec2 spacing;    // finest sample spacing, metres (x east, rows south)
 };
 
-// An instance as four uvec4 (bit casts only, so unpacking gives the same bits): the
-// control shader hands it to the evaluation shader as patch data, fetched once per quad
-// rather than per vertex.
-void instance_pack(Instance i, out uvec4 p[4])
-{
-	p[0] = uvec4(i.id, uint(i.layer), i.level, floatBitsToUint(i.q2));
-	p[1] = uvec4(uvec2(i.base), uint(i.scale), floatBitsToUint(i.err));
-	p[2] = uvec4(floatBitsToUint(i.skirt), i.px, i.py, floatBitsToUint(i.pad));
-	p[3] = uvec4(floatBitsToUint(i.frac), floatBitsToUint(i.spacing));
-}
-
+// An instance from its four uvec4 (bit casts only, so the same bits): the struct's 16 words
+// in memory order, which is how the instance buffer's RGBA32_UINT texels hold it
+// (terrain_texels.glsl) and how the control shader hands it to the evaluation shader as
+// patch data, fetched once per quad rather than per vertex.
 Instance instance_unpack(uvec4 p[4])
 {
 	return Instance(p[0].x, int(p[0].y), p[0].z, uintBitsToFloat(p[0].w), ivec2(p[1].xy), int(p[1].z),

@@ -15,7 +15,7 @@ layout(quads, equal_spacing, ccw) in;
 layout(location = 2) in vec2 in_s[];
 layout(location = 3) in float in_down[];
 layout(location = 4) patch in uvec4 in_seal; // this quad's seal record (terrain_seal.glsl)
-layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_pack)
+layout(location = 5) patch in uvec4 in_inst[4]; // its patch's instance (instance_unpack())
 // The quad's factors[] record (lod_factors.comp): outer factors (x), inner factors and the
 // interior's morph byte (y), the outer edges' morph bytes (z).
 layout(location = 9) patch in uvec3 in_factors;

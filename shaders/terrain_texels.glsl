@@ -6,8 +6,8 @@
 layout(binding = 11) uniform samplerBuffer block_records;
 float block_err(uint i) { return texelFetch(block_records, int(i)).x; }
 // The instances (binding 4, written by lod_select.comp) as RGBA32_UINT texels, four an
-// instance in instance_pack()'s order, which is their memory order: for the passes that
-// read them per lane, as the block records above.
+// instance in memory order (instance_unpack()): for the passes that read them per lane, as
+// the block records above.
 layout(binding = 24) uniform usamplerBuffer instance_texels;
 void inst_texels_at(uint slot, out uvec4 p[4])
 {

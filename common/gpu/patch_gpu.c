@@ -30,18 +30,14 @@ static int create_texel_views(struct relief_patch_cache *c)
 		VkBufferView *view;
 	} v[] = {
 		{ &c->staging, VK_FORMAT_R32_SINT, VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT,
-		  "the staging buffer as R32_SINT storage texels", &c->staging_view },
+		  "patch cache: the staging buffer (R32_SINT)", &c->staging_view },
 		{ &c->errors, VK_FORMAT_R32_SFLOAT, VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT,
-		  "the block records as R32_SFLOAT uniform texels", &c->errors_view },
+		  "patch cache: the block records (R32_SFLOAT)", &c->errors_view },
 		{ &c->layer_table, VK_FORMAT_R32_SINT, VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT,
-		  "the layer table as R32_SINT uniform texels", &c->layer_view },
+		  "patch cache: the layer table (R32_SINT)", &c->layer_view },
 	};
 	for (size_t i = 0; i < sizeof(v) / sizeof(v[0]); i++) {
-		int ret = relief_vk_texel_view_create(vk, v[i].b, v[i].format, 1, v[i].feature, v[i].view);
-		if (ret == -ENOTSUP)
-			relief_log(&c->log, RELIEF_LOG_ERROR,
-			           "patch cache: the device cannot read %s, %llu of them (maxTexelBufferElements %u)",
-			           v[i].what, (unsigned long long)(v[i].b->size / 4), vk->props.limits.maxTexelBufferElements);
+		int ret = relief_vk_texel_view_create(vk, v[i].b, v[i].format, 1, v[i].feature, &c->log, v[i].what, v[i].view);
 		if (ret < 0)
 			return ret;
 	}

@@ -150,16 +150,11 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		goto fail;
 	/* Both read as texels (shaders/patch_entry.glsl says why). */
 	if ((ret = relief_vk_texel_view_create(vk, &t->info, VK_FORMAT_R32G32B32A32_SFLOAT, 4,
-	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &t->info_view)) < 0) {
-		if (ret == -ENOTSUP)
-			relief_log(&vk->log, RELIEF_LOG_ERROR,
-			           "terrain: the device cannot read the patch info of %u entries as uniform texels "
-			           "(maxTexelBufferElements %u)",
-			           t->count, vk->props.limits.maxTexelBufferElements);
-		goto fail;
-	}
-	if ((ret = relief_vk_texel_view_create(vk, &t->windows, VK_FORMAT_R32G32B32A32_UINT, 4,
-	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &t->windows_view)) < 0)
+	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &vk->log,
+	                                       "terrain: the patch info (RGBA32_SFLOAT, binding 0)", &t->info_view)) < 0 ||
+	    (ret = relief_vk_texel_view_create(vk, &t->windows, VK_FORMAT_R32G32B32A32_UINT, 4,
+	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &vk->log,
+	                                       "terrain: the index windows (RGBA32_UINT, binding 22)", &t->windows_view)) < 0)
 		goto fail;
 
 	VkDescriptorSetLayoutBinding b[BINDINGS];

@@ -2,6 +2,7 @@
  * readback), its two descriptor sets, queries and fence, and what the CPU reads back from
  * its last frame. */
 #include <errno.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -54,19 +55,17 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->lists, VK_FORMAT_R32_UINT, 1 },         { &v->drawn, VK_FORMAT_R32_UINT, 1 },
 		{ &v->counters, VK_FORMAT_R32_UINT, 1 },      { &v->curtains, VK_FORMAT_R32_UINT, 1 },
 	};
-	for (uint32_t i = 0; i < VIEW_TEXELS; i++)
+	for (uint32_t i = 0; i < VIEW_TEXELS; i++) {
+		char what[48];
+		snprintf(what, sizeof(what), "terrain view: binding %u", FIRST_TEXELS_BINDING + i);
 		if ((ret = relief_vk_texel_view_create(vk, tx[i].b, tx[i].format, tx[i].components,
-		                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &v->texels[i])) < 0) {
-			if (ret == -ENOTSUP)
-				relief_log(&vk->log, RELIEF_LOG_ERROR,
-				           "terrain view: the device cannot read binding %u's %llu bytes as a uniform texel "
-				           "buffer (maxTexelBufferElements %u)",
-				           FIRST_TEXELS_BINDING + i, (unsigned long long)tx[i].b->size,
-				           vk->props.limits.maxTexelBufferElements);
+		                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &vk->log, what,
+		                                       &v->texels[i])) < 0)
 			goto fail;
-		}
+	}
 	if ((ret = relief_vk_texel_view_create(vk, &v->camera, VK_FORMAT_R32G32B32A32_SFLOAT, 4,
-	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &v->camera_view)) < 0)
+	                                       VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT, &vk->log,
+	                                       "terrain view: the draw camera (binding 15)", &v->camera_view)) < 0)
 		goto fail;
 	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2 * STORAGE_BUFFERS },
@@ -92,12 +91,13 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		goto fail;
 	const struct relief_patch_pool *pool = relief_patch_cache_pool(t->cache);
 	for (int s = 0; s < 2; s++) {
-		VkBuffer bufs[BINDINGS] = { t->info.buffer, pool->layer_table, v->split[s].buffer, v->split[s ^ 1].buffer,
+		/* The storage buffers by binding; VK_NULL_HANDLE where views[] or the images serve. */
+		VkBuffer bufs[BINDINGS] = { VK_NULL_HANDLE, VK_NULL_HANDLE, v->split[s].buffer, v->split[s ^ 1].buffer,
 		                            v->instances.buffer, v->counters.buffer, v->wants.buffer, pool->use_table,
-		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE /* pool->block_view */,
-		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, v->camera.buffer,
+		                            v->cmds.buffer, VK_NULL_HANDLE, VK_NULL_HANDLE, VK_NULL_HANDLE,
+		                            v->drawn.buffer, v->factors.buffer, v->curtains.buffer, VK_NULL_HANDLE,
 		                            v->seals.buffer, v->borders.buffer, pool->use_dist, v->lists.buffer,
-		                            v->frontier.buffer, v->passes.buffer, t->windows.buffer,
+		                            v->frontier.buffer, v->passes.buffer, VK_NULL_HANDLE,
 		                            VK_NULL_HANDLE /* the mesh capture's, written when enabled */ };
 		VkBufferView views[BINDINGS] = { [RECORDS_BINDING] = pool->block_view, [CAMERA_BINDING] = v->camera_view,
 			                         [INFO_BINDING] = t->info_view, [LAYERS_BINDING] = pool->layer_view,

@@ -197,9 +197,11 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b);
  * (VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT or _STORAGE_): a CPU implementation gathers
  * a texel buffer's reads for all lanes, where it reads a storage buffer lane by lane
  * (docs/platform.md). -ENOTSUP where the format lacks the feature or b holds more than
- * maxTexelBufferElements texels; destroy with vkDestroyBufferView(). */
+ * maxTexelBufferElements texels, logged to `log` as an error naming `what` and the limit;
+ * destroy with vkDestroyBufferView(). */
 int relief_vk_texel_view_create(struct relief_vk *vk, const struct relief_vk_buffer *b, VkFormat format,
-                                uint32_t components, VkFormatFeatureFlags feature, VkBufferView *out);
+                                uint32_t components, VkFormatFeatureFlags feature, const struct relief_logger *log,
+                                const char *what, VkBufferView *out);
 
 /* Several buffers bound at aligned offsets of one allocation: a terrain view's fifteen
  * buffers take two allocations (device, readback), not fifteen. The group owns the

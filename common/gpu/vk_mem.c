@@ -173,12 +173,20 @@ void relief_vk_buffer_finish(struct relief_vk *vk, struct relief_vk_buffer *b)
 }
 
 int relief_vk_texel_view_create(struct relief_vk *vk, const struct relief_vk_buffer *b, VkFormat format,
-                                uint32_t components, VkFormatFeatureFlags feature, VkBufferView *out)
+                                uint32_t components, VkFormatFeatureFlags feature, const struct relief_logger *log,
+                                const char *what, VkBufferView *out)
 {
 	VkFormatProperties fp;
 	vkGetPhysicalDeviceFormatProperties(vk->phys, format, &fp);
-	if (!(fp.bufferFeatures & feature) || b->size / (4u * components) > vk->props.limits.maxTexelBufferElements)
+	const VkDeviceSize texels = b->size / (4u * components);
+	if (!(fp.bufferFeatures & feature) || texels > vk->props.limits.maxTexelBufferElements) {
+		relief_log(log, RELIEF_LOG_ERROR,
+		           "%s: the device cannot read %llu texels of it as a %s texel buffer (maxTexelBufferElements %u%s)",
+		           what, (unsigned long long)texels,
+		           feature == VK_FORMAT_FEATURE_STORAGE_TEXEL_BUFFER_BIT ? "storage" : "uniform",
+		           vk->props.limits.maxTexelBufferElements, fp.bufferFeatures & feature ? "" : "; the format lacks the feature");
 		return -ENOTSUP;
+	}
 	VkBufferViewCreateInfo bi = {
 		.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO,
 		.buffer = b->buffer,
