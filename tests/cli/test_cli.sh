@@ -267,9 +267,12 @@ vkcheck snap-roll 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 -
 vkcheck snap-morph 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 \
 	-o "$tmp/morph.png" --morph
 expect_text snap-morph-summary "patches in"
-# relief fly: a short default flight from a cold cache, a track with two channels, bad tracks
-vkcheck fly 0 "$relief" fly "$tmp/ps.relief" --seconds 0.1 --size 64x36 --json
-expect_text fly-fields '"frames":7,"channels":1,"width":64,"height":36,"tau_px":1,"fps":60,'
+# relief fly: a short default flight from a cold cache, a track with two channels, bad tracks.
+# Frames are not paced: the first ones draw whatever the decode worker has made resident,
+# which may be nothing (CI once saw 7 frames under ASan + UBSan, on a loaded machine, all
+# before the root patch). 61 frames give the worker nearly nine times as many.
+vkcheck fly 0 "$relief" fly "$tmp/ps.relief" --seconds 1 --size 64x36 --json
+expect_text fly-fields '"frames":61,"channels":1,"width":64,"height":36,"tau_px":1,"fps":60,'
 expect_text fly-incomplete '"frames_incomplete":'
 expect_text fly-latency '"first_complete_ms":'
 levels=$(sed -n 's/.*"patches_by_level_last_frame":\[\([0-9,]*\)\].*/\1/p' <<<"$LAST_OUT")
@@ -310,11 +313,12 @@ same_channels_sky_only "$tmp/fly"
 # file under GPU-assisted validation too. Whether the flight evicts depends on how fast the
 # workers are (frames never wait; the sanitizer build's often do not fill the cache in 9
 # frames), so it is not asserted here: test_patch_cache checks eviction under validation.
-vkcheck fly-validated 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 8 --channels 2 --size 48x32 \
+# 17 frames so that even a slow build has drawn terrain by the last (compared below).
+vkcheck fly-validated 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 16 --channels 2 --size 48x32 \
 	--morph --budget 2 --workers 2 --validation --out "$tmp/flyv"
-expect_text fly-validated-summary "9 frames of 2 channel(s)"
+expect_text fly-validated-summary "17 frames of 2 channel(s)"
 same_channels_sky_only "$tmp/flyv"
-cmp -s "$tmp/flyv/frame-00008-c0.png" "$tmp/flyv/frame-00008-c1.png" &&
+cmp -s "$tmp/flyv/frame-00016-c0.png" "$tmp/flyv/frame-00016-c1.png" &&
 	{ echo "FAIL fly channels: the last validated frame has the same picture in both channels"; fails=$((fails + 1)); }
 RELIEF_GPU_AV=1 vkcheck snap-validated 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 \
 	--look 128480,79200,3000 --size 96x54 -o "$tmp/v.png" --depth "$tmp/v.f32" --wire --morph --validation
