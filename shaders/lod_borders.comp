@@ -5,6 +5,8 @@
 #include "terrain_draw.glsl"
 #include "terrain_factors.glsl"
 #include "terrain_seal.glsl"
+#include "lod_counters.glsl"
+#include "lod_eye.glsl"
 // The border work of the factor pass, apart: for every drawn patch, each block edge on its
 // border (4 x blocks) and each of its corners (4), one invocation. An edge gets the outer
 // factor the patch draws it with (matched to a coarser patch across, or at least 2^j
@@ -12,6 +14,8 @@
 // the height sealed_height() gives there. lod_factors.comp reads them. Apart, because a
 // CPU implementation (lavapipe) runs a shader's searches, masked, for every lane: in the
 // factor pass they cost every quad, here only the border's.
+// Its first invocation also decides whether back faces are culled (lod_eye.glsl) and sizes
+// the factor pass (64 quads a group), which runs after it.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 17) writeonly buffer Borders { uvec2 borders[]; };
@@ -19,6 +23,11 @@ layout(std430, binding = 17) writeonly buffer Borders { uvec2 borders[]; };
 void main()
 {
 	uint per = 4u * pc.blocks + 4u, i = gl_GlobalInvocationID.x, slot = i / per, r = i % per;
+	if (i == 0u) {
+		eye_decide();
+		uint quads = counted_patches() * pc.per_patch + counted_curtains() * pc.blocks;
+		counters.factor_groups = uvec4((quads + 63u) / 64u, 1u, 1u, 0u);
+	}
 	if (slot >= counted_patches())
 		return;
 	Instance it = inst_at(slot);

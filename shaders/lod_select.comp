@@ -29,7 +29,7 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 2) readonly buffer SplitPrev { uint split_prev[]; };
 layout(std430, binding = 3) writeonly buffer SplitNext { uint split_next[]; };
 layout(std430, binding = 4) writeonly buffer Instances { Instance inst[]; };
-layout(std430, binding = 5) buffer Counters { uint drawn; uint draws; uint wants; uint curtains; } counters;
+#include "lod_counters.glsl"
 layout(std430, binding = 6) writeonly buffer Wants { uvec2 want[]; }; // id, distance (float bits)
 layout(std430, binding = 7) writeonly buffer Use { uint use_frame[]; };
 // [2][entries]: per frame parity, the least distance to the parent's box at which a view of
@@ -45,6 +45,9 @@ layout(std430, binding = 20) buffer Frontier { uvec2 frontier[]; };
 layout(std430, binding = 21) buffer LevelPasses { uvec4 passes[]; };
 
 #include "lod_select_common.glsl"
+#include "terrain_texels.glsl"
+#include "draw_camera.glsl"
+#include "lod_eye.glsl"
 
 bool culled(vec3 bmin, vec3 bmax)
 {
@@ -158,6 +161,12 @@ void main()
 	it.spacing = pc.spacing;
 	inst[n] = it;
 	drawn[e] = 1u;
+	// The border pass's size (an item per border block edge and corner; lod_borders.comp's
+	// first invocation also decides about back faces: the frame starts it at 1 group), and
+	// the eye's height bound (lod_eye.glsl).
+	uint blocks = (pc.P - 1u) / BLOCK_CELLS;
+	atomicMax(counters.border_groups.x, ((n + 1u) * (4u * blocks + 4u) + 63u) / 64u);
+	blocks_near_eye(it, eye_rows(), blocks);
 	// Sides on the terrain's outer edge hang a curtain (the only skirts: inside, borders
 	// are sealed).
 	for (uint s = 0u; s < 4u; s++) {

@@ -86,8 +86,9 @@
  * the surface drawn under it, docs/lod.md "Back faces").
  * GPU time: timestamps around LOD compute, drawing and copy-out, per frame; median and p95
  * over all frames of all runs, the runs taken in turn over the configurations. All LOD
- * compute (selection, draw records, tessellation factors) is lod_ms (JSON lod_ms_median),
- * the coarse part alone (selection and draw records) sel_ms (select_ms_median; until the
+ * compute (selection, tessellation factors, draw records) is lod_ms (JSON lod_ms_median),
+ * the coarse part alone (the setup and the selection; with a pass of its own for the draw
+ * records until the thirty-second December session) sel_ms (select_ms_median; until the
  * third session select_ms_median meant all LOD compute). */
 #include <errno.h>
 #include <getopt.h>
@@ -435,7 +436,7 @@ int bench_lod(int argc, char **argv)
 			       "sample (JSON popping_se_px: that part's standard error). Not with --frames.\n"
 			       "--passes: one more run of each configuration with a timestamp after each LOD pass\n"
 			       "(not in the times above: on a CPU device each timestamp costs time of its own): the\n"
-			       "median of each pass (setup, select, records, borders, factors, lists) and of their sum.\n"
+			       "median of each pass (setup, select, borders, factors, lists) and of their sum.\n"
 			       "--validation: the Khronos validation layer on (exit status 1 on any message).\n");
 			return 0;
 		default: return cli_option_error("bench lod", ch, argv);

@@ -74,20 +74,20 @@ static void frame_draw(struct relief_terrain *t, struct relief_terrain_view *v, 
 
 const char *relief_lod_pass_name(enum relief_lod_pass pass)
 {
-	static const char *const names[RELIEF_LOD_PASSES] = { "setup", "select", "records", "borders", "factors", "lists" };
+	static const char *const names[RELIEF_LOD_PASSES] = { "setup", "select", "borders", "factors", "lists" };
 	return (unsigned)pass < RELIEF_LOD_PASSES ? names[pass] : "unknown";
 }
 
-/* The timestamp slot at which LOD pass `pass` ends: the records and the lists end at the
+/* The timestamp slot at which LOD pass `pass` ends: the selection and the lists end at the
  * frame's own slots 1 and 2, the others at slots of their own from FIRST_PASS_SLOT. */
 static uint32_t pass_slot(enum relief_lod_pass pass)
 {
-	static const uint32_t slot[RELIEF_LOD_PASSES] = { FIRST_PASS_SLOT, FIRST_PASS_SLOT + 1, 1,
-	                                                  FIRST_PASS_SLOT + 2, FIRST_PASS_SLOT + 3, 2 };
+	static const uint32_t slot[RELIEF_LOD_PASSES] = { FIRST_PASS_SLOT, 1, FIRST_PASS_SLOT + 1, FIRST_PASS_SLOT + 2,
+	                                                  2 };
 	return slot[pass];
 }
 
-/* The end of LOD pass `pass` (not the records or the lists: the frame writes their slots
+/* The end of LOD pass `pass` (not the selection or the lists: the frame writes their slots
  * anyway) when the frame times its passes. */
 static void pass_end(struct relief_terrain_view *v, VkCommandBuffer cmd, enum relief_lod_pass pass)
 {
@@ -171,14 +171,17 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	 * along each ray the first surface met is then an upper side; inside the terrain the
 	 * underside stays drawn. The CPU's bound (relief_surface_height_bound(), every level's
 	 * blocks there, with a margin for the rounding of drawn heights) is conservative;
-	 * lod_commands.comp decides from the blocks actually drawn around the eye and splits
-	 * the draw count between the two pipelines, which needs vkCmdDrawIndirectCount. */
+	 * the GPU decides from the blocks actually drawn around the eye (shaders/lod_eye.glsl)
+	 * and lod_commands.comp splits the draw count between the two pipelines, which needs
+	 * vkCmdDrawIndirectCount. */
 	const bool cpu_cull = !opts->no_face_cull &&
 	                      view->eye.z > relief_surface_height_bound(f, view->eye.x, view->eye.y) + FACE_CULL_MARGIN;
 	const bool gpu_cull = !opts->no_face_cull && vk->has.draw_indirect_count;
-	struct commands_push cp = {
-		t->per_patch, t->blocks, t->per_draw, t->max_draws, cpu_cull, (float)FACE_CULL_MARGIN, gpu_cull, 0
-	};
+	memcpy(camera.cull, (float[4]){ (float)FACE_CULL_MARGIN, cpu_cull, gpu_cull, 0.0f }, sizeof(camera.cull));
+	const struct commands_push cp = { t->per_patch, t->blocks, t->per_draw, t->max_draws };
+	/* Zero but the border pass's size: its first invocation decides about back faces,
+	 * even with nothing drawn; the selection raises it (lod_select.comp). */
+	const struct counters counters_start = { .border_groups = { 1, 1, 1, 0 } };
 
 	VkCommandBuffer cmd;
 	ret = relief_vk_cmd_record(vk, &cmd);
@@ -202,7 +205,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	vkCmdUpdateBuffer(cmd, v->camera.buffer, 0, sizeof(camera), &camera);
-	vkCmdFillBuffer(cmd, v->counters.buffer, 0, VK_WHOLE_SIZE, 0);
+	vkCmdUpdateBuffer(cmd, v->counters.buffer, 0, sizeof(counters_start), &counters_start);
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
 	if (opts->mesh)
@@ -251,16 +254,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
 		        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 	}
-	pass_end(v, cmd, RELIEF_LOD_PASS_SELECT);
-	/* Different push ranges make the layouts incompatible for the set: bind it again. */
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
-	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
-	vkCmdDispatch(cmd, 1, 1, 1);
-	/* Tessellation factors of every drawn quad, as many groups as the drawn count needs. */
-	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
+	/* The last level's barrier above makes the border pass's size ready for its dispatch. */
 	relief_vk_timer_write(&v->timer, cmd, 1, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT);
 	const uint32_t mode = (opts->no_skirts ? MODE_NO_SKIRTS : 0u) | (opts->no_block_cull ? MODE_NO_BLOCK_CULL : 0u) |
 	                      (opts->keep_empty_blocks ? MODE_KEEP_EMPTY_BLOCKS : 0u) |
@@ -268,20 +262,22 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	dp.mode = mode;
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
-	/* The border edges and corners first (lod_borders.comp), then every quad. */
+	/* The border edges and corners first (lod_borders.comp, which also sizes the factor
+	 * pass and decides about back faces), then every quad, as many groups as they need. */
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lp->borders);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, border_groups));
-	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-	        VK_ACCESS_SHADER_READ_BIT);
+	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+	        VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_SHADER_READ_BIT);
 	pass_end(v, cmd, RELIEF_LOD_PASS_BORDERS);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lp->factors);
 	vkCmdDispatchIndirect(cmd, v->counters.buffer, offsetof(struct counters, factor_groups));
-	/* The lists of quads that draw something, and their draw records (lod_commands.comp,
-	 * phase 1): the draws run no shader for the others. */
+	/* The lists of quads that draw something, and their draw records (lod_commands.comp):
+	 * the draws run no shader for the others. */
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT);
 	pass_end(v, cmd, RELIEF_LOD_PASS_FACTORS);
-	cp.phase = 1;
+	/* Different push ranges make the layouts incompatible for the set: bind it again. */
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
 	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);

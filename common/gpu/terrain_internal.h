@@ -41,10 +41,6 @@ _Static_assert(sizeof(struct select_push) == 128, "select push block");
 
 struct commands_push {
 	uint32_t per_patch, blocks, per_draw, max_draws;
-	uint32_t cpu_cull; /* relief_surface_height_bound()'s decision, for when no drawn block holds the eye */
-	float margin;      /* FACE_CULL_MARGIN */
-	uint32_t gpu_decides; /* the GPU's decision splits the draws (vkCmdDrawIndirectCount); else cpu_cull's */
-	uint32_t phase;       /* 0: the decision, before the factors; 1: the quad lists and their records, after them */
 };
 
 struct draw_push {
@@ -79,13 +75,13 @@ struct counters {
 	uint32_t drawn, draws, wants, curtains;
 	uint32_t factor_groups[4]; /* VkDispatchIndirectCommand for lod_factors.comp, then padding */
 	uint32_t border_groups[4]; /* the same for lod_borders.comp */
-	/* lod_commands.comp: back faces culled; a drawn block holds the eye; the highest
-	 * block around it (metres) */
+	/* Back faces (shaders/lod_eye.glsl): culled; a drawn block holds the eye; the highest
+	 * block around it (metres once the frame is done; an ordered key during the selection) */
 	uint32_t face_culled, found;
 	float near_high;
 	uint32_t draw_culled; /* the decision the frame draws with: the GPU's, or cpu_cull without a split */
 	/* draw records of the shown list for the culling pipeline, for the other, of the
-	 * clipped list, and the quads in that list (all lod_commands.comp, phase 1) */
+	 * clipped list, and the quads in that list (all lod_commands.comp) */
 	uint32_t draw_split[4];
 };
 /* The words shaders/terrain_draw.glsl reads as texels: drawn, curtains, draw_culled. */
@@ -100,7 +96,13 @@ _Static_assert(offsetof(struct counters, drawn) == 0 && offsetof(struct counters
 struct draw_camera {
 	float vp[16];
 	float eye[4];
+	/* The back-face decision's other inputs (shaders/lod_eye.glsl, eye_decide()): the
+	 * margin (FACE_CULL_MARGIN), the CPU's decision (relief_surface_height_bound(): 1 or
+	 * 0), for when no drawn block holds the eye, and whether the GPU's decision splits the
+	 * draws (vkCmdDrawIndirectCount: 1; else the CPU's is drawn with); 0 */
+	float cull[4];
 };
+_Static_assert(sizeof(struct draw_camera) == 6 * 16, "six RGBA32F texels");
 
 /* draw_push.mode: bit 0 wireframe pass, bit 3 no skirts, bit 4 no block culling, bit 6
  * blocks without data drawn, bit 9 the transition strips left unbounded
@@ -211,7 +213,7 @@ struct relief_terrain_view {
 	/* struct draw_camera: the view-projection positions are drawn with (the LOD's own
 	 * matrix is in the push constants), written by the frame's command buffer */
 	struct relief_vk_buffer camera;
-	VkBufferView camera_view; /* binding 15: its five RGBA32F texels (shaders/draw_camera.glsl) */
+	VkBufferView camera_view; /* binding 15: its six RGBA32F texels (shaders/draw_camera.glsl) */
 	/* What the CPU reads after a frame: counters and requests, copied at its end; the
 	 * drawn instances, copied when asked for (relief_terrain_view_drawn()) */
 	struct relief_vk_buffer read_counters, read_wants, read_instances;
@@ -234,11 +236,11 @@ struct relief_terrain_view {
 	uint32_t last_drawn;
 	/* Per view, so that several views' frames can be in flight at once */
 	VkQueryPool stats_pool;
-	/* 0 frame start, 1 selection and records done, 2 factors and lists done, 3 frame done;
-	 * with relief_draw_options.pass_timing also 4 setup done, 5 selection done, 6 borders
-	 * done, 7 factors done (from FIRST_PASS_SLOT) */
+	/* 0 frame start, 1 selection done, 2 factors and lists done, 3 frame done; with
+	 * relief_draw_options.pass_timing also 4 setup done, 5 borders done, 6 factors done
+	 * (from FIRST_PASS_SLOT) */
 	struct relief_vk_timer timer;
-	bool pass_timed; /* the frame in flight or last waited for wrote slots 4-7 */
+	bool pass_timed; /* the frame in flight or last waited for wrote slots 4-6 */
 	/* The last frame waited for: whether its timestamps were read, and its start and end
 	 * (raw, relief_terrain_views_span_ns()) */
 	bool timed;

@@ -1,0 +1,14 @@
+// A view's counters (binding 5, struct counters in common/gpu/terrain_internal.h) as the
+// passes that write them declare them; the drawing stages and the factor pass read words of
+// them as texels (terrain_draw.glsl).
+layout(std430, binding = 5) buffer Counters {
+	uint drawn; uint draws; uint wants; uint curtains;
+	uvec4 factor_groups, border_groups; // VkDispatchIndirectCommand of lod_factors.comp, lod_borders.comp
+	// Back faces (lod_eye.glsl): culled in this frame; a drawn block holds the eye; the
+	// highest block near it, an ordered key (height_key()) while the selection raises it,
+	// metres (float bits) once lod_borders.comp has decided; the decision the draws use.
+	uint face_culled; uint found; uint near_high; uint draw_culled;
+	// Draw records of the shown list for the culling pipeline, for the other, of the
+	// clipped list, and the quads in that list (lod_commands.comp).
+	uvec4 draw_split;
+} counters;
