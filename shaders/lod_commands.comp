@@ -11,9 +11,9 @@
 // tessellated vertices per draw): the shown list's from cmds[0], counted in draws and in
 // draw_split[0] (culling pipeline) or [1] (the other), the clipped list's from
 // cmds[max_draws], counted in draw_split[2], its quads in draw_split[3]. One workgroup.
-// (Until December 2026 a first phase, before the factors, decided about back faces and
-// sized the factor and border passes: the selection and lod_borders.comp do that now,
-// one dispatch and barrier fewer: lod_eye.glsl.)
+// (Until the thirty-second December 2026 session a first phase, before the factors, decided
+// about back faces and sized the factor and border passes: the selection and
+// lod_borders.comp do that now, one dispatch and barrier fewer: lod_eye.glsl.)
 layout(local_size_x = 64) in;
 
 struct DrawCmd { uint vertex_count, instance_count, first_vertex, first_instance; };
