@@ -22,11 +22,10 @@ layout(std430, binding = 17) writeonly buffer Borders { uvec2 borders[]; };
 
 void main()
 {
-	uint per = 4u * pc.blocks + 4u, i = gl_GlobalInvocationID.x, slot = i / per, r = i % per;
+	uint per = border_items(pc.blocks), i = gl_GlobalInvocationID.x, slot = i / per, r = i % per;
 	if (i == 0u) {
 		eye_decide();
-		uint quads = counted_patches() * pc.per_patch + counted_curtains() * pc.blocks;
-		counters.factor_groups = uvec4((quads + 63u) / 64u, 1u, 1u, 0u);
+		counters.factor_groups = uvec4((counted_quads() + 63u) / 64u, 1u, 1u, 0u);
 	}
 	if (slot >= counted_patches())
 		return;

@@ -20,8 +20,8 @@ layout(local_size_x = 64) in;
 // 17), as the block records (terrain_draw.glsl).
 layout(binding = 25) uniform usamplerBuffer border_texels;
 uvec2 border_at(uint i) { return texelFetch(border_texels, int(i)).xy; }
-uvec2 border_edge(uint slot, uint side, int a) { return border_at(slot * (4u * pc.blocks + 4u) + side * pc.blocks + uint(a)); }
-uvec2 border_corner(uint slot, uint c) { return border_at(slot * (4u * pc.blocks + 4u) + 4u * pc.blocks + c); }
+uvec2 border_edge(uint slot, uint side, int a) { return border_at(slot * border_items(pc.blocks) + side * pc.blocks + uint(a)); }
+uvec2 border_corner(uint slot, uint c) { return border_at(slot * border_items(pc.blocks) + 4u * pc.blocks + c); }
 
 // The seal record's corner part (terrain_seal.glsl) for a quad with corners s[] (patch
 // samples): the sealed height at the patch corner among them, if any.
@@ -186,7 +186,7 @@ layout(std430, binding = 16) writeonly buffer Seals { uvec4 seals[]; };
 void main()
 {
 	uint q = gl_GlobalInvocationID.x;
-	if (q >= counted_patches() * pc.per_patch + counted_curtains() * pc.blocks)
+	if (q >= counted_quads())
 		return;
 	uint slot, k;
 	quad_of(q, slot, k);

@@ -165,7 +165,7 @@ void main()
 	// first invocation also decides about back faces: the frame starts it at 1 group), and
 	// the eye's height bound (lod_eye.glsl).
 	uint blocks = (pc.P - 1u) / BLOCK_CELLS;
-	atomicMax(counters.border_groups.x, ((n + 1u) * (4u * blocks + 4u) + 63u) / 64u);
+	atomicMax(counters.border_groups.x, ((n + 1u) * border_items(blocks) + 63u) / 64u);
 	blocks_near_eye(it, eye_rows(), blocks);
 	// Sides on the terrain's outer edge hang a curtain (the only skirts: inside, borders
 	// are sealed).

@@ -41,6 +41,10 @@ ivec2 facing_cell(ivec2 q, int m, uint side, int a)
 	     : side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : ivec2(q.x * m, q.y * m + a);
 }
 
+// A drawn patch's border items (lod_borders.comp, one invocation and one record each): the
+// block edges of its 4 sides (north, south, west, east; `blocks` each), then its 4 corners.
+uint border_items(uint blocks) { return 4u * blocks + 4u; }
+
 // A curtain record (lod_select.comp): drawn patch slot in bits 0-29, its side on the
 // terrain's outer edge (0 north, 1 south, 2 west, 3 east) in bits 30-31.
 const uint CURTAIN_SLOT_MASK = 0x3fffffffu;

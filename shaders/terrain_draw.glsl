@@ -34,6 +34,9 @@ layout(push_constant) uniform DrawPush {
 	uint ratio;       // tolerance growth per coarser level (the codec's k)
 } pc;
 
+// The frame's quad patches: every drawn patch's blocks, then every curtain's quads.
+uint counted_quads() { return counted_patches() * pc.per_patch + counted_curtains() * pc.blocks; }
+
 const uint FINE_ERRORS = 0u;   // block errors and tau (relief)
 const uint FINE_FULL = 1u;     // every block at full resolution (chunked LOD, full grid)
 const uint FINE_DISTANCE = 2u; // factor from the edge's projected length (no error metric)
