@@ -395,13 +395,16 @@ expect_text bench-lod-mesh-full-grid '"max_err_mesh_px":0.0000,'
 expect_text bench-lod-mesh-kinds '"max_err_mesh_coarse_edge_px":'
 m=$(grep -E '"method":"(relief|chunked)"' <<<"$LAST_OUT" | grep -c '"other_triangles":0,')
 [ "$m" -eq 2 ] || { echo "FAIL bench lod other triangles: $m of relief and chunked have none"; fails=$((fails + 1)); }
-# --unculled: relief and chunked also drawn without block culling, in turn with the rest;
-# culling draws no more triangles and changes no error (the picture is the same).
-vkcheck bench-lod-unculled 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \
-	--unculled --json
+# One run for three options, each of which adds methods or measures: --unculled (relief and
+# chunked also drawn without block culling, in turn with the rest), --morphed (relief also
+# drawn with geomorphing) and --recheck-all (every pixel measured again at three times the
+# resolution with three times tau).
+vkcheck bench-lod-options 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \
+	--unculled --morphed --recheck-all --json
 n=$(grep -c '"method":' <<<"$LAST_OUT")
-[ "$n" -eq 6 ] || { echo "FAIL bench lod --unculled records: $n"; fails=$((fails + 1)); }
+[ "$n" -eq 7 ] || { echo "FAIL bench lod --unculled --morphed --recheck-all records: $n"; fails=$((fails + 1)); }
 field() { grep "\"method\":\"$1\"" <<<"$LAST_OUT" | sed -n "s/.*\"$2\":\([0-9.e+-]*\).*/\1/p"; }
+# --unculled: culling draws no more triangles and changes no error (the picture is the same).
 culled=$(field relief triangles) unculled=$(field relief-unculled triangles)
 if [ -n "$culled" ] && [ -n "$unculled" ] && awk -v a="$culled" -v b="$unculled" 'BEGIN { exit !(a <= b) }' &&
 	[ "$(field relief max_err_px)" = "$(field relief-unculled max_err_px)" ] &&
@@ -411,26 +414,38 @@ else
 	echo "FAIL bench lod --unculled: triangles $culled culled, $unculled not; errors differ?"
 	fails=$((fails + 1))
 fi
-# --morphed: relief also drawn with geomorphing; the same triangles, every error within tau
-vkcheck bench-lod-morphed 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \
-	--morphed --json
-n=$(grep -c '"method":' <<<"$LAST_OUT")
-if [ "$n" -eq 5 ] && [ "$(field relief triangles)" = "$(field relief-morphed triangles)" ] &&
+# --morphed: the same triangles, every error within tau
+if [ "$(field relief triangles)" = "$(field relief-morphed triangles)" ] &&
 	awk -v e="$(field relief-morphed max_err_px)" 'BEGIN { exit !(e != "" && e <= 1.0) }'; then
 	passes=$((passes + 1))
 else
-	echo "FAIL bench lod --morphed: $n records, triangles $(field relief triangles) and $(field relief-morphed triangles)"
+	echo "FAIL bench lod --morphed: triangles $(field relief triangles) and $(field relief-morphed triangles)"
 	fails=$((fails + 1))
 fi
+# --recheck-all: the same level of detail (no pixel unresolved: another triangle count would
+# leave them all so) and the same rays: the RMS change of a pixel's error is 0.0002-0.0013 px
+# here (single far slivers up to 0.08 px), 0.01-0.09 px with pixel 3x, 3y for 3x + 1, 3y + 1.
+ok=1
+for m in relief chunked relief-morphed; do
+	px=$(field "$m" pixels) over=$(field "$m" over_tau_pixels) un=$(field "$m" unresolved_pixels)
+	diff=$(field "$m" recheck_rms_diff_px)
+	if [ -z "$px" ] || [ "$px" -eq 0 ] || [ "$over" != "$px" ] || [ "$un" != 0 ] ||
+		! awk -v d="$diff" 'BEGIN { exit !(d != "" && d <= 0.003) }'; then
+		echo "FAIL bench lod --recheck-all $m: $px pixels, $over rechecked, $un unresolved, RMS change $diff px"
+		ok=0
+	fi
+done
+[ -z "$(field distance over_tau_pixels)" ] || { echo "FAIL bench lod: distance has no tau to recheck"; ok=0; }
+if [ "$ok" -eq 1 ]; then passes=$((passes + 1)); else fails=$((fails + 1)); fi
 # --passes: one more run with a timestamp after each LOD pass. With one key pose a run has
 # two frames, whose median is their mean, so each record's pass medians add up to the
 # median of their sum (each printed to 0.0001 ms), and every pass took some time.
-vkcheck bench-lod-passes 0 "$relief" bench lod "$tmp/ps.relief" --frames 1 --runs 1 --size 64x36 --taus 1 --targets 4 \
+vkcheck bench-lod-passes 0 "$relief" bench lod "$tmp/crop.relief" --frames 1 --runs 1 --size 64x36 --taus 1 --targets 4 \
 	--passes --json
 m=$(sed -n 's/.*"lod_profiled_ms_median":\([0-9.]*\),"lod_pass_ms":{"setup":\([0-9.]*\),"select":\([0-9.]*\),"borders":\([0-9.]*\),"factors":\([0-9.]*\),"lists":\([0-9.]*\)}.*/\1 \2 \3 \4 \5 \6/p' <<<"$LAST_OUT" |
 	awk '{ s = 0; ok = 1; for (i = 2; i <= 6; i++) { s += $i; ok = ok && $i > 0 } d = s - $1; if (ok && (d < 0 ? -d : d) <= 0.0007) n++ } END { print n + 0 }')
 [ "$m" -eq 4 ] || { echo "FAIL bench lod --passes: $m of 4 records whose passes add up: $LAST_OUT"; fails=$((fails + 1)); }
-vkcheck bench-lod-passes-text 0 "$relief" bench lod "$tmp/ps.relief" --frames 1 --runs 1 --size 64x36 --taus 1 --targets 4 \
+vkcheck bench-lod-passes-text 0 "$relief" bench lod "$tmp/crop.relief" --frames 1 --runs 1 --size 64x36 --taus 1 --targets 4 \
 	--passes
 expect_text bench-lod-passes-table "setup   select  borders  factors    lists  profiled"
 # --every-frame: popping over every frame of the flight's line (the crop: 380 frames), each
@@ -444,24 +459,6 @@ m=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | grep -c '"popping_px":0.00000,'
 [ "$m" -eq 1 ] || { echo "FAIL bench lod --every-frame: the full grid pops"; fails=$((fails + 1)); }
 check bench-lod-every-frame-and-frames 2 "$relief" bench lod "$tmp/crop.relief" --every-frame 4 --frames 2
 expect_text bench-lod-every-frame-and-frames-named "--frames and --every-frame exclude each other"
-# --recheck-all: every pixel measured again at three times the resolution with three times
-# tau. The same level of detail (no pixel unresolved: another triangle count would leave
-# them all so) and the same rays: the RMS change of a pixel's error is 0.0002-0.0013 px
-# here (single far slivers up to 0.08 px), 0.01-0.09 px with pixel 3x, 3y for 3x + 1, 3y + 1.
-vkcheck bench-lod-recheck 0 "$relief" bench lod "$tmp/ps.relief" --frames 2 --runs 1 --size 64x36 --taus 1 --targets 4 \
-	--morphed --recheck-all --json
-ok=1
-for m in relief chunked relief-morphed; do
-	px=$(field "$m" pixels) over=$(field "$m" over_tau_pixels) un=$(field "$m" unresolved_pixels)
-	diff=$(field "$m" recheck_rms_diff_px)
-	if [ -z "$px" ] || [ "$px" -eq 0 ] || [ "$over" != "$px" ] || [ "$un" != 0 ] ||
-		! awk -v d="$diff" 'BEGIN { exit !(d != "" && d <= 0.003) }'; then
-		echo "FAIL bench lod --recheck-all $m: $px pixels, $over rechecked, $un unresolved, RMS change $diff px"
-		ok=0
-	fi
-done
-[ -z "$(field distance over_tau_pixels)" ] || { echo "FAIL bench lod: distance has no tau to recheck"; ok=0; }
-if [ "$ok" -eq 1 ]; then passes=$((passes + 1)); else fails=$((fails + 1)); fi
 vkcheck bench-lod-zero-runs 2 "$relief" bench lod "$tmp/ps.relief" --runs 0
 expect_text bench-lod-zero-runs-named "--runs"
 echo "cli: $passes passed, $fails failed"
