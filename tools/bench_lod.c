@@ -89,7 +89,14 @@
  * compute (selection, tessellation factors, draw records) is lod_ms (JSON lod_ms_median),
  * the coarse part alone (the setup and the selection; with a pass of its own for the draw
  * records until the thirty-second December session) sel_ms (select_ms_median; until the
- * third session select_ms_median meant all LOD compute). */
+ * third session select_ms_median meant all LOD compute).
+ * At equal measured error (relief's configurations, relief-* included): for each baseline
+ * (full-grid, distance, chunked), its fastest configuration whose largest error is at most
+ * the row's (bench_match.h), and the row's speedup over it (that configuration's median
+ * frame time over the row's; JSON objects with baseline, its tau_px, error, gpu_ms_median
+ * and speedup): at_equal_error by max_err_px (the error at pixels, this
+ * benchmark's measure), at_equal_mesh_error by max_err_mesh_px (on any triangle) where the
+ * mesh is measured; a baseline none of whose configurations is as accurate is left out. */
 #include <errno.h>
 #include <getopt.h>
 #include <math.h>
@@ -100,6 +107,7 @@
 #include "bench.h"
 #include "bench_flight.h"
 #include "bench_lod.h"
+#include "bench_match.h"
 #include "bench_util.h"
 #include "cli.h"
 #include "decode.h"
@@ -262,11 +270,88 @@ static int configs_fill(struct config *cfg, const double *taus, uint32_t ntau, c
 	return n;
 }
 
-/* One configuration's result as a JSON line (fields at the top of the file), of `runs`
- * runs; with `passes`, each LOD pass's median. */
-static void result_print_json(const struct run *r, const struct config *c, const struct result *res, uint32_t runs,
-                              bool passes)
+/* The baselines relief's configurations are compared with at equal measured error. */
+static const char *const equal_error_baselines[] = { "full-grid", "distance", "chunked" };
+
+static bool config_is_relief(const struct config *c)
 {
+	return strncmp(c->method, "relief", 6) == 0;
+}
+
+/* The largest error of result x by the measure: at pixels, or on any triangle (mesh; -1
+ * where not measured). */
+static double result_err(const struct result *x, bool mesh)
+{
+	return mesh ? x->mesh_max : x->max_err;
+}
+
+/* The configuration of `method` to compare configuration i with at equal or lower error by
+ * the measure (bench_match_cheapest()): its index in cfg, or -1. */
+static int equal_error_match(const struct config *cfg, const struct result *res, int n, int i, const char *method,
+                             bool mesh)
+{
+	struct bench_point points[MAX_CONFIGS];
+	int index[MAX_CONFIGS], m = 0;
+	for (int k = 0; k < n; k++)
+		if (strcmp(cfg[k].method, method) == 0) {
+			points[m] = (struct bench_point){ result_err(&res[k], mesh), res[k].ms_median };
+			index[m++] = k;
+		}
+	int j = bench_match_cheapest(points, m, result_err(&res[i], mesh));
+	return j < 0 ? -1 : index[j];
+}
+
+/* Configuration i's baselines at equal or lower error, as the JSON array `name`. */
+static void equal_error_print_json(const struct config *cfg, const struct result *res, int n, int i, bool mesh,
+                                   const char *name)
+{
+	printf(",\"%s\":[", name);
+	bool first = true;
+	for (size_t b = 0; b < sizeof(equal_error_baselines) / sizeof(*equal_error_baselines); b++) {
+		int j = equal_error_match(cfg, res, n, i, equal_error_baselines[b], mesh);
+		if (j < 0)
+			continue;
+		printf("%s{\"baseline\":\"%s\",\"tau_px\":%g,\"%s\":%.4f,\"gpu_ms_median\":%.3f,\"speedup\":%.3f}",
+		       first ? "" : ",", cfg[j].method, cfg[j].param, mesh ? "max_err_mesh_px" : "max_err_px",
+		       result_err(&res[j], mesh), res[j].ms_median, res[j].ms_median / res[i].ms_median);
+		first = false;
+	}
+	printf("]");
+}
+
+/* Text output: each relief configuration against each baseline at equal or lower error at
+ * pixels. */
+static void equal_error_print_text(const struct config *cfg, const struct result *res, int n)
+{
+	printf("\nAt equal or lower error: each baseline's fastest configuration whose max_err is at most the row's "
+	       "(its tau/px, ms_median; speedup: its ms_median over the row's)\n%-16s %7s %10s",
+	       "method", "tau/px", "ms_median");
+	for (size_t b = 0; b < sizeof(equal_error_baselines) / sizeof(*equal_error_baselines); b++)
+		printf("   %-24s", equal_error_baselines[b]);
+	printf("\n");
+	for (int i = 0; i < n; i++) {
+		if (!config_is_relief(&cfg[i]))
+			continue;
+		printf("%-16s %7g %10.2f", cfg[i].method, cfg[i].param, res[i].ms_median);
+		for (size_t b = 0; b < sizeof(equal_error_baselines) / sizeof(*equal_error_baselines); b++) {
+			int j = equal_error_match(cfg, res, n, i, equal_error_baselines[b], false);
+			char cell[64] = "-";
+			if (j >= 0)
+				snprintf(cell, sizeof(cell), "%g: %.2f ms, %.2fx", cfg[j].param, res[j].ms_median,
+				         res[j].ms_median / res[i].ms_median);
+			printf("   %-24s", cell);
+		}
+		printf("\n");
+	}
+}
+
+/* Configuration i's result (of cfg[0 .. n), res[0 .. n)) as a JSON line (fields at the top
+ * of the file), of `runs` runs; with `passes`, each LOD pass's median. */
+static void result_print_json(const struct run *r, const struct config *cfg, const struct result *results, int n,
+                              int i, uint32_t runs, bool passes)
+{
+	const struct config *c = &cfg[i];
+	const struct result *res = &results[i];
 	const uint32_t w = r->gpu.target.width, h = r->gpu.target.height;
 	printf("{\"method\":\"%s\",\"tau_px\":%g,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,"
 	       "\"lod_ms_median\":%.4f,\"select_ms_median\":%.4f,\"triangles\":%.0f,\"quads\":%.0f,"
@@ -310,6 +395,11 @@ static void result_print_json(const struct run *r, const struct config *c, const
 		       "\"max_err_mesh_fan_px\":%.4f,\"other_triangles\":%.0f",
 		       res->mesh_max, res->mesh_transition, res->mesh_regular_worse, res->transitions,
 		       res->mesh_kind[0], res->mesh_kind[1], res->mesh_kind[2], res->mesh_other);
+	if (config_is_relief(c)) {
+		equal_error_print_json(cfg, results, n, i, false, "at_equal_error");
+		if (res->mesh_max >= 0)
+			equal_error_print_json(cfg, results, n, i, true, "at_equal_mesh_error");
+	}
 	bench_json_machine(r->gpu.vk->props.deviceName);
 }
 
@@ -549,9 +639,11 @@ int bench_lod(int argc, char **argv)
 		goto out;
 	for (int i = 0; i < n; i++)
 		if (json)
-			result_print_json(&r, &cfg[i], &res[i], runs, passes);
+			result_print_json(&r, cfg, res, n, i, runs, passes);
 		else
 			result_print_text(&cfg[i], &res[i]);
+	if (!json)
+		equal_error_print_text(cfg, res, n);
 	if (passes && !json)
 		passes_print_text(cfg, res, n);
 	status = 0;

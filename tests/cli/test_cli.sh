@@ -382,6 +382,27 @@ fg=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | sed -n 's/.*"popping_event_pix
 m=$(sed -n 's/.*"popping_excluded_pixels":\([0-9]*\).*/\1/p' <<<"$LAST_OUT" | awk -v fg="${fg:--1}" '$1 <= fg + 0' | wc -l)
 [ "$m" -eq 4 ] || { echo "FAIL bench lod popping_excluded_pixels over the full grid's $fg: $m of 4 within"; fails=$((fails + 1)); }
 expect_text bench-lod-runs '"frames":4,"runs":2,'
+# At equal measured error: relief's record names, for each baseline with a configuration at
+# least as accurate, the fastest such one, and its speedup is that one's time over relief's.
+# The full grid is always there (it is the reference, within 0.1 px at every pixel kept).
+equal=$(grep '"method":"relief"' <<<"$LAST_OUT" | awk '{
+	match($0, /"gpu_ms_median":[0-9.]+/); ms = substr($0, RSTART + 16, RLENGTH - 16) + 0
+	match($0, /"max_err_px":[0-9.]+/); err = substr($0, RSTART + 13, RLENGTH - 13) + 0
+	if (!match($0, /"at_equal_error":\[[^]]*\]/)) { print "none"; exit }
+	n = split(substr($0, RSTART, RLENGTH), e, /\},\{/); ok = 0
+	for (i = 1; i <= n; i++) {
+		match(e[i], /"max_err_px":[0-9.]+/); be = substr(e[i], RSTART + 13, RLENGTH - 13) + 0
+		match(e[i], /"gpu_ms_median":[0-9.]+/); bms = substr(e[i], RSTART + 16, RLENGTH - 16) + 0
+		match(e[i], /"speedup":[0-9.]+/); sp = substr(e[i], RSTART + 10, RLENGTH - 10) + 0
+		d = sp - bms / ms; if (d < 0) d = -d
+		if (be <= err && d <= 0.002 * sp + 0.001) ok++
+	}
+	print ok " of " n (index($0, "\"at_equal_error\":[{\"baseline\":\"full-grid\"") ? " full-grid" : "")
+}')
+case "$equal" in
+"1 of 1 full-grid" | "2 of 2 full-grid" | "3 of 3 full-grid") passes=$((passes + 1)) ;;
+*) echo "FAIL bench lod at_equal_error: $equal entries consistent"; fails=$((fails + 1)) ;;
+esac
 expect_text bench-lod-face-cull '"face_culled_frames":4' # the flight is above the terrain
 expect_text bench-lod-cpu '","cpu":"'
 # Triangle by triangle (lavapipe has the capture): every method but the full grid, which
@@ -448,6 +469,7 @@ m=$(sed -n 's/.*"lod_profiled_ms_median":\([0-9.]*\),"lod_pass_ms":{"setup":\([0
 vkcheck bench-lod-passes-text 0 "$relief" bench lod "$tmp/crop.relief" --frames 1 --runs 1 --size 64x36 --taus 1 --targets 4 \
 	--passes
 expect_text bench-lod-passes-table "setup   select  borders  factors    lists  profiled"
+expect_text bench-lod-equal-error-table "At equal or lower error: each baseline's fastest configuration"
 # --every-frame: popping over every frame of the flight's line (the crop: 380 frames), each
 # method's LOD chosen for all of them in turn; the pairs measured are the LOD-change pairs
 # of any method and 4 spread evenly. The full grid's LOD never changes (its popping is 0).
