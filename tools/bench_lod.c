@@ -94,7 +94,7 @@
  * (full-grid, distance, chunked), its fastest configuration whose largest error is at most
  * the row's (bench_match.h), and the row's speedup over it (that configuration's median
  * frame time over the row's; JSON objects with baseline, its tau_px, error, gpu_ms_median
- * and speedup): at_equal_error by max_err_px (the error at pixels, this
+ * and speedup, -1 where the device gave no times): at_equal_error by max_err_px (the error at pixels, this
  * benchmark's measure), at_equal_mesh_error by max_err_mesh_px (on any triangle) where the
  * mesh is measured; a baseline none of whose configurations is as accurate is left out. */
 #include <errno.h>
@@ -313,7 +313,7 @@ static void equal_error_print_json(const struct config *cfg, const struct result
 			continue;
 		printf("%s{\"baseline\":\"%s\",\"tau_px\":%g,\"%s\":%.4f,\"gpu_ms_median\":%.3f,\"speedup\":%.3f}",
 		       first ? "" : ",", cfg[j].method, cfg[j].param, mesh ? "max_err_mesh_px" : "max_err_px",
-		       result_err(&res[j], mesh), res[j].ms_median, res[j].ms_median / res[i].ms_median);
+		       result_err(&res[j], mesh), res[j].ms_median, finite_or(res[j].ms_median / res[i].ms_median));
 		first = false;
 	}
 	printf("]");
