@@ -272,6 +272,7 @@ static int configs_fill(struct config *cfg, const double *taus, uint32_t ntau, c
 
 /* The baselines relief's configurations are compared with at equal measured error. */
 static const char *const equal_error_baselines[] = { "full-grid", "distance", "chunked" };
+#define EQUAL_ERROR_BASELINES (sizeof(equal_error_baselines) / sizeof(*equal_error_baselines))
 
 static bool config_is_relief(const struct config *c)
 {
@@ -307,7 +308,7 @@ static void equal_error_print_json(const struct config *cfg, const struct result
 {
 	printf(",\"%s\":[", name);
 	bool first = true;
-	for (size_t b = 0; b < sizeof(equal_error_baselines) / sizeof(*equal_error_baselines); b++) {
+	for (size_t b = 0; b < EQUAL_ERROR_BASELINES; b++) {
 		int j = equal_error_match(cfg, res, n, i, equal_error_baselines[b], mesh);
 		if (j < 0)
 			continue;
@@ -326,14 +327,14 @@ static void equal_error_print_text(const struct config *cfg, const struct result
 	printf("\nAt equal or lower error: each baseline's fastest configuration whose max_err is at most the row's "
 	       "(its tau/px, ms_median; speedup: its ms_median over the row's)\n%-16s %7s %10s",
 	       "method", "tau/px", "ms_median");
-	for (size_t b = 0; b < sizeof(equal_error_baselines) / sizeof(*equal_error_baselines); b++)
+	for (size_t b = 0; b < EQUAL_ERROR_BASELINES; b++)
 		printf("   %-24s", equal_error_baselines[b]);
 	printf("\n");
 	for (int i = 0; i < n; i++) {
 		if (!config_is_relief(&cfg[i]))
 			continue;
 		printf("%-16s %7g %10.2f", cfg[i].method, cfg[i].param, res[i].ms_median);
-		for (size_t b = 0; b < sizeof(equal_error_baselines) / sizeof(*equal_error_baselines); b++) {
+		for (size_t b = 0; b < EQUAL_ERROR_BASELINES; b++) {
 			int j = equal_error_match(cfg, res, n, i, equal_error_baselines[b], false);
 			char cell[64] = "-";
 			if (j >= 0)
