@@ -385,15 +385,17 @@ expect_text bench-lod-runs '"frames":4,"runs":2,'
 # At equal measured error: relief's record names, for each baseline with a configuration at
 # least as accurate, the fastest such one, and its speedup is that one's time over relief's.
 # The full grid is there: on these frames its largest error (0.01 px) is below relief's.
-equal=$(grep '"method":"relief"' <<<"$LAST_OUT" | awk '{
-	match($0, /"gpu_ms_median":[0-9.]+/); ms = substr($0, RSTART + 16, RLENGTH - 16) + 0
-	match($0, /"max_err_px":[0-9.]+/); err = substr($0, RSTART + 13, RLENGTH - 13) + 0
+equal=$(grep '"method":"relief"' <<<"$LAST_OUT" | awk '
+function num(text, key) { # the first number after "key": in text
+	if (!match(text, "\"" key "\":[0-9.]+")) return -1
+	return substr(text, RSTART + length(key) + 3, RLENGTH - length(key) - 3) + 0
+}
+{
+	ms = num($0, "gpu_ms_median"); err = num($0, "max_err_px")
 	if (!match($0, /"at_equal_error":\[[^]]*\]/)) { print "none"; exit }
 	n = split(substr($0, RSTART, RLENGTH), e, /\},\{/); ok = 0
 	for (i = 1; i <= n; i++) {
-		match(e[i], /"max_err_px":[0-9.]+/); be = substr(e[i], RSTART + 13, RLENGTH - 13) + 0
-		match(e[i], /"gpu_ms_median":[0-9.]+/); bms = substr(e[i], RSTART + 16, RLENGTH - 16) + 0
-		match(e[i], /"speedup":[0-9.]+/); sp = substr(e[i], RSTART + 10, RLENGTH - 10) + 0
+		be = num(e[i], "max_err_px"); bms = num(e[i], "gpu_ms_median"); sp = num(e[i], "speedup")
 		d = sp - bms / ms; if (d < 0) d = -d
 		if (be <= err && d <= 0.002 * sp + 0.001) ok++
 	}
