@@ -10,7 +10,12 @@
  * and chunked without block culling (--unculled).
  * The cache is warm (every patch resident), so frames measure LOD, not streaming.
  * triangles and quads: per frame, the primitives reaching the clipper and the quad patches
- * the control shader ran for (pipeline statistics; 0 where the device has none).
+ * the control shader ran for (pipeline statistics; 0 where the device has none). Where the
+ * device captures meshes, the same triangles by where they fall (mesh_cover.h), per frame:
+ * tri_outside (beyond a plane of the frustum), tri_eye (reaching the eye's plane), tri_back
+ * (facing away), tri_no_pixel (facing the camera, no pixel centre inside), tri_pixels (some
+ * inside), and pixels_per_tri, the centres inside those on average: a CPU device's
+ * rasteriser does little for the first kinds (docs/benchmarks.md, "What a triangle costs").
  *
  * Error: at every pixel showing terrain, the vertical distance from the drawn surface to the
  * finest decoded surface, projected to pixels (the quantity tau bounds); max and RMS over all
@@ -396,6 +401,16 @@ static void result_print_json(const struct run *r, const struct config *cfg, con
 		       "\"max_err_mesh_fan_px\":%.4f,\"other_triangles\":%.0f",
 		       res->mesh_max, res->mesh_transition, res->mesh_regular_worse, res->transitions,
 		       res->mesh_kind[0], res->mesh_kind[1], res->mesh_kind[2], res->mesh_other);
+	if (res->mesh_max >= 0) {
+		/* per analysed frame, as transition_triangles */
+		const struct mesh_cover *m = &res->cover;
+		const double frames = 2.0 * r->frames;
+		printf(",\"tri_outside\":%.1f,\"tri_eye\":%.1f,\"tri_back\":%.1f,\"tri_no_pixel\":%.1f,"
+		       "\"tri_pixels\":%.1f,\"pixels_per_tri\":%.3f",
+		       m->kind[MESH_COVER_OUTSIDE] / frames, m->kind[MESH_COVER_EYE] / frames, m->kind[MESH_COVER_BACK] / frames,
+		       m->kind[MESH_COVER_EMPTY] / frames, m->kind[MESH_COVER_PIXELS] / frames,
+		       m->kind[MESH_COVER_PIXELS] ? (double)m->centres / (double)m->kind[MESH_COVER_PIXELS] : 0.0);
+	}
 	if (config_is_relief(c)) {
 		equal_error_print_json(cfg, results, n, i, false, "at_equal_error");
 		if (res->mesh_max >= 0)
@@ -516,7 +531,9 @@ int bench_lod(int argc, char **argv)
 			       "--recheck-all rechecks every pixel (a check of the recheck, slow).\n"
 			       "mesh_max: every triangle of every frame captured and measured whole against the\n"
 			       "finest surface, between pixel centres and behind other triangles too (the JSON also\n"
-			       "splits it into the tessellator's transition triangles and the regular ones).\n"
+			       "splits it into the tessellator's transition triangles and the regular ones, and\n"
+			       "counts the triangles by where they fall: beyond the frustum, facing away, on no\n"
+			       "pixel centre, or on some, with the centres each of those covers).\n"
 			       "Popping events (pairs in which some pixel's error changes by over 0.01 px): the\n"
 			       "JSON counts the quads whose factors the change of LOD alone changed in them;\n"
 			       "--trace-events lists each event's quads on stderr.\n"

@@ -9,6 +9,7 @@
 
 #include "bench_flight.h"
 #include "format.h"
+#include "mesh_cover.h"
 #include "mesh_diff.h"
 #include "renderer.h"
 #include "terrain.h"
@@ -59,6 +60,9 @@ struct result {
 	 * kind OTHER or UNKNOWN over all frames */
 	double mesh_max, mesh_transition, mesh_regular_worse, transitions;
 	double mesh_kind[3], mesh_other;
+	/* Where the captured triangles fall (mesh_cover.h), summed over the analysed frames
+	 * (valid where mesh_max >= 0) */
+	struct mesh_cover cover;
 	/* --every-frame: popping, camera popping and shade popping over every pair of the line */
 	struct bench_flight_mean every[3];
 };

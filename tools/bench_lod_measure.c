@@ -155,6 +155,7 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 	for (int k = 0; k < 3; k++)
 		res->mesh_kind[k] = fmax(res->mesh_kind[k], e.kind_max_px[RELIEF_MESH_COARSE_EDGE + k]);
 	res->mesh_other += (double)(e.kind_triangles[RELIEF_MESH_OTHER] + e.kind_triangles[RELIEF_MESH_UNKNOWN]);
+	mesh_cover_add(r->f, v, r->mesh, (uint64_t)n, &res->cover);
 	return 0;
 }
 

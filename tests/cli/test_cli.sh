@@ -418,6 +418,24 @@ expect_text bench-lod-mesh-full-grid '"max_err_mesh_px":0.0000,'
 expect_text bench-lod-mesh-kinds '"max_err_mesh_coarse_edge_px":'
 m=$(grep -E '"method":"(relief|chunked)"' <<<"$LAST_OUT" | grep -c '"other_triangles":0,')
 [ "$m" -eq 2 ] || { echo "FAIL bench lod other triangles: $m of relief and chunked have none"; fails=$((fails + 1)); }
+# Where the captured triangles fall (tools/mesh_cover.h): the five kinds add up to the
+# triangles the device counted (pipeline statistics) in the same frames.
+m=$(awk '
+function num(text, key) { # the first number after "key": in text
+	if (!match(text, "\"" key "\":[0-9.]+")) return -1
+	return substr(text, RSTART + length(key) + 3, RLENGTH - length(key) - 3) + 0
+}
+/"method":/ {
+	t = num($0, "triangles"); s = 0
+	for (i = split("tri_outside tri_eye tri_back tri_no_pixel tri_pixels", k, " "); i > 0; i--) {
+		v = num($0, k[i]); if (v < 0) next
+		s += v
+	}
+	d = s - t; if (d < 0) d = -d
+	if (t > 0 && d <= 0.001 * t + 0.1 && num($0, "pixels_per_tri") >= 1) ok++
+}
+END { print ok + 0 }' <<<"$LAST_OUT")
+[ "$m" -eq 4 ] || { echo "FAIL bench lod triangle kinds: $m of 4 records add up to their triangles"; fails=$((fails + 1)); }
 # One run for three options, each of which adds methods or measures: --unculled (relief and
 # chunked also drawn without block culling, in turn with the rest), --morphed (relief also
 # drawn with geomorphing) and --recheck-all (every pixel measured again at three times the
