@@ -382,14 +382,16 @@ fg=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | sed -n 's/.*"popping_event_pix
 m=$(sed -n 's/.*"popping_excluded_pixels":\([0-9]*\).*/\1/p' <<<"$LAST_OUT" | awk -v fg="${fg:--1}" '$1 <= fg + 0' | wc -l)
 [ "$m" -eq 4 ] || { echo "FAIL bench lod popping_excluded_pixels over the full grid's $fg: $m of 4 within"; fails=$((fails + 1)); }
 expect_text bench-lod-runs '"frames":4,"runs":2,'
-# At equal measured error: relief's record names, for each baseline with a configuration at
-# least as accurate, the fastest such one, and its speedup is that one's time over relief's.
-# The full grid is there: on these frames its largest error (0.01 px) is below relief's.
-equal=$(grep '"method":"relief"' <<<"$LAST_OUT" | awk '
-function num(text, key) { # the first number after "key": in text
+# The awk checks of JSON records below read their numbers through num().
+awk_num='function num(text, key) { # the first number after "key": in text
 	if (!match(text, "\"" key "\":[0-9.]+")) return -1
 	return substr(text, RSTART + length(key) + 3, RLENGTH - length(key) - 3) + 0
 }
+'
+# At equal measured error: relief's record names, for each baseline with a configuration at
+# least as accurate, the fastest such one, and its speedup is that one's time over relief's.
+# The full grid is there: on these frames its largest error (0.01 px) is below relief's.
+equal=$(grep '"method":"relief"' <<<"$LAST_OUT" | awk "$awk_num"'
 {
 	ms = num($0, "gpu_ms_median"); err = num($0, "max_err_px")
 	if (!match($0, /"at_equal_error":\[[^]]*\]/)) { print "none"; exit }
@@ -420,11 +422,7 @@ m=$(grep -E '"method":"(relief|chunked)"' <<<"$LAST_OUT" | grep -c '"other_trian
 [ "$m" -eq 2 ] || { echo "FAIL bench lod other triangles: $m of relief and chunked have none"; fails=$((fails + 1)); }
 # Where the captured triangles fall (tools/mesh_cover.h): the five kinds add up to the
 # triangles the device counted (pipeline statistics) in the same frames.
-m=$(awk '
-function num(text, key) { # the first number after "key": in text
-	if (!match(text, "\"" key "\":[0-9.]+")) return -1
-	return substr(text, RSTART + length(key) + 3, RLENGTH - length(key) - 3) + 0
-}
+m=$(awk "$awk_num"'
 /"method":/ {
 	t = num($0, "triangles"); s = 0
 	for (i = split("tri_outside tri_eye tri_back tri_no_pixel tri_pixels", k, " "); i > 0; i--) {

@@ -38,6 +38,14 @@ static struct relief_vec3 ground_at(double x, double y)
 	return (struct relief_vec3){ a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), 0 };
 }
 
+/* A front-facing triangle of 6 mm around ground point p (about 0.005 px here). */
+static void tiny_around(struct relief_vec3 p, struct relief_mesh_vertex t[3])
+{
+	t[0] = vertex_at(p.x - 0.003, p.y - 0.003, 0);
+	t[1] = vertex_at(p.x + 0.003, p.y - 0.003, 0);
+	t[2] = vertex_at(p.x, p.y + 0.003, 0);
+}
+
 static struct mesh_cover cover(const struct relief_mesh_vertex *t, uint64_t n)
 {
 	struct mesh_cover c;
@@ -63,17 +71,14 @@ static void test_ground_fills_view(void **state)
  * it surrounds, and none when it lies between four. */
 static void test_small_triangles(void **state)
 {
-	struct relief_vec3 p = ground_at(50, 50);
-	const struct relief_mesh_vertex on[3] = { vertex_at(p.x - 0.003, p.y - 0.003, 0), vertex_at(p.x + 0.003, p.y - 0.003, 0),
-		                                  vertex_at(p.x, p.y + 0.003, 0) };
-	struct mesh_cover c = cover(on, 1);
+	struct relief_vec3 q = ground_at(50, 50), r = ground_at(51, 51);
+	struct relief_mesh_vertex t[3];
+	tiny_around(q, t);
+	struct mesh_cover c = cover(t, 1);
 	assert_int_equal(c.kind[MESH_COVER_PIXELS], 1);
 	assert_int_equal(c.centres, 1);
-	struct relief_vec3 q = ground_at(50, 50), r = ground_at(51, 51);
-	p = (struct relief_vec3){ 0.5 * (q.x + r.x), 0.5 * (q.y + r.y), 0 };
-	const struct relief_mesh_vertex between[3] = { vertex_at(p.x - 0.003, p.y - 0.003, 0),
-		                                       vertex_at(p.x + 0.003, p.y - 0.003, 0), vertex_at(p.x, p.y + 0.003, 0) };
-	c = cover(between, 1);
+	tiny_around((struct relief_vec3){ 0.5 * (q.x + r.x), 0.5 * (q.y + r.y), 0 }, t); /* between four centres */
+	c = cover(t, 1);
 	assert_int_equal(c.kind[MESH_COVER_EMPTY], 1);
 	assert_int_equal(c.centres, 0);
 }
