@@ -52,6 +52,8 @@ struct batch {
 	int32_t parent_layers[MAX_BATCH]; /* resident, or in an earlier batch still in flight */
 };
 
+struct patch_program;
+
 struct relief_patch_cache {
 	struct relief_vk *vk;            /* borrowed */
 	const struct relief_file *file;  /* borrowed */
@@ -74,11 +76,10 @@ struct relief_patch_cache {
 	VkBufferView staging_view;    /* the staging buffer as R32_SINT texels (see patch_gpu.c) */
 	VkBufferView errors_view;     /* the block records as R32_SFLOAT texels, for the terrain (patch_gpu.c) */
 	VkBufferView layer_view;      /* the layer table as R32_SINT texels, for the terrain */
-	VkDescriptorSetLayout set_layout;
+	/* the passes' layouts and pipelines, the device's (patch_gpu.c) */
+	const struct patch_program *prog;
 	VkDescriptorPool descriptor_pool;
 	VkDescriptorSet set;
-	VkPipelineLayout pipeline_layout;
-	VkPipeline decode_pipeline, normals_pipeline, strips_pipeline;
 	VkCommandPool cmd_pool;
 	VkQueryPool timer;
 	struct batch batches[IN_FLIGHT];

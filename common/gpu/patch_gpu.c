@@ -44,9 +44,20 @@ static int create_texel_views(struct relief_patch_cache *c)
 	return 0;
 }
 
-static int create_descriptors(struct relief_patch_cache *c)
+/* The passes' descriptor set layout, pipeline layout and pipelines: the same for every
+ * patch cache (nothing in them depends on the file or the budget: the patch size and the
+ * rest come in the job records), so a device makes them once, at its first cache, and
+ * keeps them (relief_vk_shared()). On lavapipe the strip bounds' pipeline alone takes
+ * about 0.8 s to make, most of a cache's creation. */
+struct patch_program {
+	VkDescriptorSetLayout set_layout;
+	VkPipelineLayout layout;
+	VkPipeline decode, normals, strips;
+};
+
+static int program_create(struct relief_vk *vk, void *obj)
 {
-	struct relief_vk *vk = c->vk;
+	struct patch_program *p = obj;
 	VkDescriptorSetLayoutBinding b[6] = {
 		{ 0, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
 		{ 1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT, NULL },
@@ -60,10 +71,51 @@ static int create_descriptors(struct relief_patch_cache *c)
 		.bindingCount = 6,
 		.pBindings = b,
 	};
-	int ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &c->set_layout),
+	int ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &p->set_layout),
 	                          "vkCreateDescriptorSetLayout");
 	if (ret < 0)
 		return ret;
+	VkPushConstantRange range = { VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t) }; /* first job */
+	VkPipelineLayoutCreateInfo pli = {
+		.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+		.setLayoutCount = 1,
+		.pSetLayouts = &p->set_layout,
+		.pushConstantRangeCount = 1,
+		.pPushConstantRanges = &range,
+	};
+	if ((ret = relief_vk_check(vk, vkCreatePipelineLayout(vk->device, &pli, NULL, &p->layout),
+	                           "vkCreatePipelineLayout")) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, p->layout, RELIEF_SPIRV(patch_decode_comp_spv), &p->decode)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, p->layout, RELIEF_SPIRV(patch_normals_comp_spv), &p->normals)) < 0)
+		return ret;
+	return relief_vk_compute_pipeline_create(vk, p->layout, RELIEF_SPIRV(patch_strips_comp_spv), &p->strips);
+}
+
+static void program_destroy(struct relief_vk *vk, void *obj)
+{
+	struct patch_program *p = obj;
+	const VkPipeline pipes[3] = { p->decode, p->normals, p->strips };
+	for (int i = 0; i < 3; i++)
+		if (pipes[i])
+			vkDestroyPipeline(vk->device, pipes[i], NULL);
+	if (p->layout)
+		vkDestroyPipelineLayout(vk->device, p->layout, NULL);
+	if (p->set_layout)
+		vkDestroyDescriptorSetLayout(vk->device, p->set_layout, NULL);
+}
+
+static const struct relief_vk_shared_kind patch_program_kind = {
+	"patch cache: the decode passes' pipelines", sizeof(struct patch_program), program_create, program_destroy,
+};
+
+static int create_descriptors(struct relief_patch_cache *c)
+{
+	struct relief_vk *vk = c->vk;
+	void *prog;
+	int ret = relief_vk_shared(vk, &patch_program_kind, &prog);
+	if (ret < 0)
+		return ret;
+	c->prog = prog;
 	VkDescriptorPoolSize sizes[3] = {
 		{ VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 },
 		{ VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 1 },
@@ -82,7 +134,7 @@ static int create_descriptors(struct relief_patch_cache *c)
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
 		.descriptorPool = c->descriptor_pool,
 		.descriptorSetCount = 1,
-		.pSetLayouts = &c->set_layout,
+		.pSetLayouts = &c->prog->set_layout,
 	};
 	if ((ret = relief_vk_check(vk, vkAllocateDescriptorSets(vk->device, &ai, &c->set), "vkAllocateDescriptorSets")) < 0)
 		return ret;
@@ -102,31 +154,6 @@ static int create_descriptors(struct relief_patch_cache *c)
 	};
 	vkUpdateDescriptorSets(vk->device, 6, w, 0, NULL);
 	return 0;
-}
-
-static int create_pipelines(struct relief_patch_cache *c)
-{
-	struct relief_vk *vk = c->vk;
-	VkPushConstantRange range = { VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(uint32_t) }; /* first job */
-	VkPipelineLayoutCreateInfo li = {
-		.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-		.setLayoutCount = 1,
-		.pSetLayouts = &c->set_layout,
-		.pushConstantRangeCount = 1,
-		.pPushConstantRanges = &range,
-	};
-	int ret = relief_vk_check(vk, vkCreatePipelineLayout(vk->device, &li, NULL, &c->pipeline_layout),
-	                          "vkCreatePipelineLayout");
-	if (ret < 0)
-		return ret;
-	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_decode_comp_spv),
-	                                             &c->decode_pipeline)) < 0)
-		return ret;
-	if ((ret = relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_normals_comp_spv),
-	                                             &c->normals_pipeline)) < 0)
-		return ret;
-	return relief_vk_compute_pipeline_create(vk, c->pipeline_layout, RELIEF_SPIRV(patch_strips_comp_spv),
-	                                         &c->strips_pipeline);
 }
 
 static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAccessFlags src_access,
@@ -173,15 +200,15 @@ static int init_layouts(struct relief_patch_cache *c)
 	               VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	*(struct job_params *)c->jobs.map = (struct job_params){ .mode = 2 };
 	uint32_t first = 0;
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
-	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->layout, 0, 1, &c->set, 0, NULL);
+	vkCmdPushConstants(cmd, c->prog->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->decode);
 	vkCmdDispatch(cmd, 1, 1, 1);
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->normals);
 	vkCmdDispatch(cmd, 1, 1, 1);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->strips_pipeline);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->strips);
 	vkCmdDispatch(cmd, 1, 1, 1);
 	return relief_vk_cmd_submit_wait(c->vk, cmd);
 }
@@ -218,7 +245,7 @@ static int create_batches(struct relief_patch_cache *c)
 int patch_gpu_init(struct relief_patch_cache *c)
 {
 	int ret;
-	if ((ret = create_texel_views(c)) < 0 || (ret = create_descriptors(c)) < 0 || (ret = create_pipelines(c)) < 0 ||
+	if ((ret = create_texel_views(c)) < 0 || (ret = create_descriptors(c)) < 0 ||
 	    (ret = create_batches(c)) < 0)
 		return ret;
 	c->pool.block_view = c->errors_view;
@@ -236,18 +263,8 @@ void patch_gpu_finish(struct relief_patch_cache *c)
 		vkDestroyCommandPool(vk->device, c->cmd_pool, NULL);
 	if (c->timer)
 		vkDestroyQueryPool(vk->device, c->timer, NULL);
-	if (c->decode_pipeline)
-		vkDestroyPipeline(vk->device, c->decode_pipeline, NULL);
-	if (c->normals_pipeline)
-		vkDestroyPipeline(vk->device, c->normals_pipeline, NULL);
-	if (c->strips_pipeline)
-		vkDestroyPipeline(vk->device, c->strips_pipeline, NULL);
-	if (c->pipeline_layout)
-		vkDestroyPipelineLayout(vk->device, c->pipeline_layout, NULL);
 	if (c->descriptor_pool)
 		vkDestroyDescriptorPool(vk->device, c->descriptor_pool, NULL);
-	if (c->set_layout)
-		vkDestroyDescriptorSetLayout(vk->device, c->set_layout, NULL);
 	if (c->staging_view)
 		vkDestroyBufferView(vk->device, c->staging_view, NULL);
 	if (c->errors_view)
@@ -338,15 +355,15 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 			.e0 = relief_file_measured_draw_error(c->file, &rec),
 		};
 	}
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->pipeline_layout, 0, 1, &c->set, 0, NULL);
-	vkCmdPushConstants(cmd, c->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->layout, 0, 1, &c->set, 0, NULL);
+	vkCmdPushConstants(cmd, c->prog->layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(first), &first);
 	/* Workgroup x: runs of about RUN_ITEMS items (shaders/patch_run.glsl): for decode a
 	 * segment of 8 quads of a row, ((P + 3) / 2 + 7) / 8 x (P + 3) / 2 of them; for normals
 	 * a block of 4 x 8 samples, (P + 3) / 4 x (P + 7) / 8 of them. Workgroup z: the job. */
 	const uint32_t quads = (c->P + 3) / 2;
 	const uint32_t runs_e = ((quads + 7) / 8 * quads + RUN_ITEMS - 1) / RUN_ITEMS;
 	const uint32_t runs_p = ((c->P + 3) / 4 * ((c->P + 7) / 8) + RUN_ITEMS - 1) / RUN_ITEMS;
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->decode_pipeline);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->decode);
 	vkCmdDispatch(cmd, runs_e, 1, b->n);
 	/* The heights for the next two passes; and the block records' copy before the strips
 	 * pass writes the rest of each record (other bytes, but the same buffer binding). */
@@ -355,14 +372,14 @@ int patch_gpu_submit(struct relief_patch_cache *c, struct batch *b)
 	               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	if (c->timer && c->o.pass_timing) /* after the barrier: the decode pass has finished */
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 1);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->normals_pipeline);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->normals);
 	vkCmdDispatch(cmd, runs_p, 1, b->n);
 	/* The transition strip bounds read the heights too and write their own part of the
 	 * layers' block records: no barrier after the normals pass (so the timestamp between
 	 * them marks the normals' end; the strips may have started). */
 	if (c->timer && c->o.pass_timing)
 		vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, c->timer, q + 2);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->strips_pipeline);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, c->prog->strips);
 	vkCmdDispatch(cmd, 1, 1, b->n);
 	/* Make the results visible to every later reader, and the flags to the host. */
 	memory_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,

@@ -311,6 +311,7 @@ int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **ou
 	atomic_init(&vk->validation_messages, 0);
 	atomic_init(&vk->allocations, 0);
 	pthread_mutex_init(&vk->modules_lock, NULL);
+	pthread_mutex_init(&vk->shared_lock, NULL);
 	vk->validation = env_flag("RELIEF_VALIDATION", opts->validation);
 	vk->gpu_av = vk->validation && env_flag("RELIEF_GPU_AV", false);
 
@@ -342,11 +343,16 @@ void relief_vk_destroy(struct relief_vk *vk)
 		vkDeviceWaitIdle(vk->device);
 		if (vk->cmd_pool)
 			vkDestroyCommandPool(vk->device, vk->cmd_pool, NULL);
+		for (uint32_t i = vk->n_shared; i-- > 0;) {
+			vk->shared[i].kind->destroy(vk, vk->shared[i].obj);
+			free(vk->shared[i].obj);
+		}
 		for (uint32_t i = 0; i < vk->n_modules; i++)
 			vkDestroyShaderModule(vk->device, vk->modules[i].module, NULL);
 		vkDestroyDevice(vk->device, NULL);
 	}
 	pthread_mutex_destroy(&vk->modules_lock);
+	pthread_mutex_destroy(&vk->shared_lock);
 	if (vk->messenger) {
 		PFN_vkDestroyDebugUtilsMessengerEXT destroy = (PFN_vkDestroyDebugUtilsMessengerEXT)
 			vkGetInstanceProcAddr(vk->instance, "vkDestroyDebugUtilsMessengerEXT");
@@ -356,4 +362,34 @@ void relief_vk_destroy(struct relief_vk *vk)
 	if (vk->instance)
 		vkDestroyInstance(vk->instance, NULL);
 	free(vk);
+}
+
+int relief_vk_shared(struct relief_vk *vk, const struct relief_vk_shared_kind *kind, void **out)
+{
+	int ret = 0;
+	pthread_mutex_lock(&vk->shared_lock);
+	uint32_t i = 0;
+	while (i < vk->n_shared && vk->shared[i].kind != kind)
+		i++;
+	if (i == vk->n_shared) {
+		void *obj = NULL;
+		if (i == RELIEF_VK_MAX_SHARED)
+			ret = -ENOSPC;
+		else if (!(obj = calloc(1, kind->size)))
+			ret = -ENOMEM;
+		else if ((ret = kind->create(vk, obj)) < 0) {
+			kind->destroy(vk, obj);
+			free(obj);
+		} else {
+			vk->shared[i].kind = kind;
+			vk->shared[i].obj = obj;
+			vk->n_shared++;
+		}
+		if (ret < 0)
+			relief_log(&vk->log, RELIEF_LOG_ERROR, "%s: %s", kind->name, strerror(-ret));
+	}
+	if (ret == 0)
+		*out = vk->shared[i].obj;
+	pthread_mutex_unlock(&vk->shared_lock);
+	return ret;
 }

@@ -47,6 +47,21 @@ struct relief_vk_options {
 #define RELIEF_VK_CAPTURE_FENCES 32
 /* Distinct shader codes a device keeps modules of (relief_vk_shader_module()). */
 #define RELIEF_VK_MAX_MODULES 48
+/* Kinds of object a device keeps for its life and shares (relief_vk_shared()). */
+#define RELIEF_VK_MAX_SHARED 8
+
+struct relief_vk;
+/* A kind of object that does not depend on who uses it, made once per device and shared
+ * by every user (relief_vk_shared()): one static const instance per kind, its address the
+ * key. */
+struct relief_vk_shared_kind {
+	const char *name; /* for messages */
+	size_t size;      /* bytes of the object, zeroed before create() */
+	/* 0 or a negative errno; on failure destroy() still runs on what was made */
+	int (*create)(struct relief_vk *vk, void *obj);
+	/* undoes create(), whole or partial (handles are VK_NULL_HANDLE where not made) */
+	void (*destroy)(struct relief_vk *vk, void *obj);
+};
 
 struct relief_vk {
 	VkInstance instance;
@@ -100,10 +115,28 @@ struct relief_vk {
 	} modules[RELIEF_VK_MAX_MODULES];
 	uint32_t n_modules;
 	pthread_mutex_t modules_lock;
+	/* Objects kept for the device's life (relief_vk_shared()), destroyed in reverse order
+	 * before the device. Under shared_lock. */
+	struct {
+		const struct relief_vk_shared_kind *kind;
+		void *obj;
+	} shared[RELIEF_VK_MAX_SHARED];
+	uint32_t n_shared;
+	pthread_mutex_t shared_lock;
 };
 
 int relief_vk_create(const struct relief_vk_options *opts, struct relief_vk **out);
 void relief_vk_destroy(struct relief_vk *vk);
+
+/* The device's object of `kind`, made by kind->create() at the first call and returned
+ * by every later one, from any thread (a caller arriving while it is being made waits for
+ * it). For what every user would make alike and what takes long to make: a CPU
+ * implementation compiles a pipeline at each vkCreate*Pipelines (lavapipe took 0.8 s for
+ * the patch cache's strip bounds, docs/architecture.md), so a pipeline made per user made
+ * every patch cache pay that again. A failed creation is not kept: the next call tries
+ * again. The object lives until relief_vk_destroy(); users must not destroy it. -ENOSPC
+ * beyond RELIEF_VK_MAX_SHARED kinds. */
+int relief_vk_shared(struct relief_vk *vk, const struct relief_vk_shared_kind *kind, void **out);
 
 /* The one VkResult -> errno mapping. On failure logs "<what>: <VkResult name>" and returns
  * the negative errno; VK_SUCCESS (and other non-negative results) return 0. */

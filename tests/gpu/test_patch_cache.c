@@ -308,6 +308,9 @@ static void test_budget_and_eviction(void **state)
 		assert_int_equal(s.used + s.free, s.layers);
 		relief_patch_cache_destroy(c);
 	}
+	/* Every cache on this device, here and in the tests before (other patch sizes too),
+	 * took the one set of pipelines the device keeps (relief_vk_shared()). */
+	assert_int_equal(vk->n_shared, 1);
 	/* Seven layers: root, level 1, and two of level 2 at a time. */
 	struct relief_patch_cache_options o = { .budget_bytes = 64ull << 20, .max_layers = 7, .keep_frames = 1 };
 	assert_int_equal(relief_patch_cache_create(vk, f, &o, NULL, &c), 0);
