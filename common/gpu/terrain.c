@@ -1,7 +1,9 @@
-/* The terrain renderer (see terrain.h): the terrain, its descriptor set layout and its
- * pipelines. One descriptor set layout serves every pipeline (selection, draw records,
- * borders, factors, drawing); each view has two sets that swap its hysteresis buffers every
- * frame (terrain_view.c); a frame is recorded in terrain_frame.c. */
+/* The terrain renderer (see terrain.h): the terrain, the device's LOD program (descriptor
+ * set layout, pipeline layouts and compute pipelines, shared by every terrain on it) and
+ * the terrain's draw pipelines. One descriptor set layout serves every pipeline
+ * (selection, draw records, borders, factors, drawing); each view has two sets that swap
+ * its hysteresis buffers every frame (terrain_view.c); a frame is recorded in
+ * terrain_frame.c. */
 #include <errno.h>
 #include <math.h>
 #include <stddef.h>
@@ -79,6 +81,66 @@ static int check_limits(struct relief_vk *vk, uint32_t max_draws)
 	return 0;
 }
 
+static void program_destroy(struct relief_vk *vk, void *obj)
+{
+	struct terrain_program *p = obj;
+	VkDevice dev = vk->device;
+	VkPipeline pipes[3 + 2 * 4] = { p->select, p->force, p->commands };
+	for (int k = 0; k < 4; k++) {
+		pipes[3 + 2 * k] = p->lod[k].borders;
+		pipes[4 + 2 * k] = p->lod[k].factors;
+	}
+	for (size_t i = 0; i < sizeof(pipes) / sizeof(pipes[0]); i++)
+		if (pipes[i])
+			vkDestroyPipeline(dev, pipes[i], NULL);
+	VkPipelineLayout layouts[4] = { p->select_layout, p->commands_layout, p->factors_layout, p->draw_layout };
+	for (int i = 0; i < 4; i++)
+		if (layouts[i])
+			vkDestroyPipelineLayout(dev, layouts[i], NULL);
+	if (p->set_layout)
+		vkDestroyDescriptorSetLayout(dev, p->set_layout, NULL);
+	if (p->locked)
+		pthread_mutex_destroy(&p->lock);
+}
+
+/* One descriptor set layout for every pass and stage, a pipeline layout per push-constant
+ * block, the selection's and the lists' pipelines; the factor and border passes' come per
+ * kind of frame when first needed. */
+static int program_create(struct relief_vk *vk, void *obj)
+{
+	struct terrain_program *p = obj;
+	if (pthread_mutex_init(&p->lock, NULL) != 0)
+		return -ENOMEM;
+	p->locked = true;
+	VkDescriptorSetLayoutBinding b[BINDINGS];
+	for (uint32_t i = 0; i < BINDINGS; i++)
+		b[i] = (VkDescriptorSetLayoutBinding){ i, binding_type(i), 1, VK_SHADER_STAGE_ALL, NULL };
+	VkDescriptorSetLayoutCreateInfo li = {
+		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+		.bindingCount = BINDINGS,
+		.pBindings = b,
+	};
+	int ret;
+	if ((ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &p->set_layout),
+	                           "vkCreateDescriptorSetLayout")) < 0 ||
+	    (ret = layout_with_push(vk, p->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct select_push),
+	                            &p->select_layout)) < 0 ||
+	    (ret = layout_with_push(vk, p->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct commands_push),
+	                            &p->commands_layout)) < 0 ||
+	    (ret = layout_with_push(vk, p->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct draw_push),
+	                            &p->factors_layout)) < 0 ||
+	    (ret = layout_with_push(vk, p->set_layout, VK_SHADER_STAGE_ALL_GRAPHICS, sizeof(struct draw_push),
+	                            &p->draw_layout)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, p->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &p->select)) < 0 ||
+	    (ret = relief_vk_compute_pipeline_create(vk, p->select_layout, RELIEF_SPIRV(lod_force_comp_spv), &p->force)) < 0)
+		return ret;
+	return relief_vk_compute_pipeline_create(vk, p->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv), &p->commands);
+}
+
+static const struct relief_vk_shared_kind terrain_program_kind = {
+	"terrain: the LOD passes' pipelines", sizeof(struct terrain_program), program_create, program_destroy,
+};
+
 /* The terrain's draw pipeline: solid, both faces kept, no capture. */
 static struct relief_vk_tess_pipeline_desc draw_pipeline_desc(const struct relief_terrain *t)
 {
@@ -88,7 +150,7 @@ static struct relief_vk_tess_pipeline_desc draw_pipeline_desc(const struct relie
 		.tese = RELIEF_SPIRV(terrain_tese_spv),
 		.frag = RELIEF_SPIRV(terrain_frag_spv),
 		.control_points = 4,
-		.layout = t->draw_layout,
+		.layout = t->prog->draw_layout,
 		.pass = t->pass,
 		.reversed_z = true,
 	};
@@ -157,29 +219,10 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	                                       "terrain: the index windows (RGBA32_UINT, binding 22)", &t->windows_view)) < 0)
 		goto fail;
 
-	VkDescriptorSetLayoutBinding b[BINDINGS];
-	for (uint32_t i = 0; i < BINDINGS; i++)
-		b[i] = (VkDescriptorSetLayoutBinding){ i, binding_type(i), 1, VK_SHADER_STAGE_ALL, NULL };
-	VkDescriptorSetLayoutCreateInfo li = {
-		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
-		.bindingCount = BINDINGS,
-		.pBindings = b,
-	};
-	if ((ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &t->set_layout),
-	                           "vkCreateDescriptorSetLayout")) < 0 ||
-	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct select_push),
-	                            &t->select_layout)) < 0 ||
-	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct commands_push),
-	                            &t->commands_layout)) < 0 ||
-	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct draw_push),
-	                            &t->factors_layout)) < 0 ||
-	    (ret = layout_with_push(vk, t->set_layout, VK_SHADER_STAGE_ALL_GRAPHICS, sizeof(struct draw_push),
-	                            &t->draw_layout)) < 0 ||
-	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_select_comp_spv), &t->select)) < 0 ||
-	    (ret = relief_vk_compute_pipeline_create(vk, t->select_layout, RELIEF_SPIRV(lod_force_comp_spv), &t->force)) < 0 ||
-	    (ret = relief_vk_compute_pipeline_create(vk, t->commands_layout, RELIEF_SPIRV(lod_commands_comp_spv),
-	                                             &t->commands)) < 0)
+	void *prog;
+	if ((ret = relief_vk_shared(vk, &terrain_program_kind, &prog)) < 0)
 		goto fail;
+	t->prog = prog;
 	t->pass = target->pass;
 	const struct lod_pipelines *lp;
 	if ((ret = terrain_lod_pipelines_create(t, RELIEF_FINE_ERRORS, false, &lp)) < 0 ||
@@ -248,17 +291,20 @@ int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod 
 	if ((unsigned)fine > RELIEF_FINE_DISTANCE)
 		return -EINVAL;
 	morph = morph && fine == RELIEF_FINE_ERRORS; /* the baselines do not geomorph */
-	struct lod_pipelines *p = &t->lod[fine == RELIEF_FINE_ERRORS ? (unsigned)morph : 1u + (unsigned)fine];
+	struct terrain_program *prog = t->prog;
+	struct lod_pipelines *p = &prog->lod[fine == RELIEF_FINE_ERRORS ? (unsigned)morph : 1u + (unsigned)fine];
 	*out = p;
 	const struct kind_spec kind = { morph, (uint32_t)fine };
 	const VkSpecializationInfo spec = kind_spec_info(&kind);
 	int ret = 0;
+	pthread_mutex_lock(&prog->lock);
 	if (!p->borders)
-		ret = relief_vk_compute_pipeline_create_spec(t->vk, t->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv), &spec,
-		                                             &p->borders);
+		ret = relief_vk_compute_pipeline_create_spec(t->vk, prog->factors_layout, RELIEF_SPIRV(lod_borders_comp_spv),
+		                                             &spec, &p->borders);
 	if (ret == 0 && !p->factors)
-		ret = relief_vk_compute_pipeline_create_spec(t->vk, t->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv), &spec,
-		                                             &p->factors);
+		ret = relief_vk_compute_pipeline_create_spec(t->vk, prog->factors_layout, RELIEF_SPIRV(lod_factors_comp_spv),
+		                                             &spec, &p->factors);
+	pthread_mutex_unlock(&prog->lock);
 	return ret;
 }
 
@@ -272,16 +318,6 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	if (!t)
 		return;
 	VkDevice dev = t->vk->device;
-	VkPipeline pipes[3] = { t->select, t->force, t->commands };
-	for (int i = 0; i < 3; i++)
-		if (pipes[i])
-			vkDestroyPipeline(dev, pipes[i], NULL);
-	for (int k = 0; k < 4; k++) {
-		if (t->lod[k].borders)
-			vkDestroyPipeline(dev, t->lod[k].borders, NULL);
-		if (t->lod[k].factors)
-			vkDestroyPipeline(dev, t->lod[k].factors, NULL);
-	}
 	for (int m = 0; m < 2; m++) {
 		const struct draw_pipelines *p = &t->draw[m];
 		VkPipeline draw[5] = { p->fill, p->cull, p->wire, p->mesh_fill, p->mesh_cull };
@@ -289,12 +325,6 @@ void relief_terrain_destroy(struct relief_terrain *t)
 			if (draw[i])
 				vkDestroyPipeline(dev, draw[i], NULL);
 	}
-	VkPipelineLayout layouts[4] = { t->select_layout, t->commands_layout, t->factors_layout, t->draw_layout };
-	for (int i = 0; i < 4; i++)
-		if (layouts[i])
-			vkDestroyPipelineLayout(dev, layouts[i], NULL);
-	if (t->set_layout)
-		vkDestroyDescriptorSetLayout(dev, t->set_layout, NULL);
 	if (t->info_view)
 		vkDestroyBufferView(dev, t->info_view, NULL);
 	if (t->windows_view)

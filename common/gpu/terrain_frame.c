@@ -25,7 +25,7 @@ static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v
 	VkDeviceSize at = 16 * (VkDeviceSize)t->max_draws * (VkDeviceSize)list;
 	dp->mode = mode;
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
-	vkCmdPushConstants(cmd, t->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(*dp), dp);
+	vkCmdPushConstants(cmd, t->prog->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(*dp), dp);
 	if (t->vk->has.draw_indirect_count)
 		vkCmdDrawIndirectCount(cmd, v->cmds.buffer, at, v->counters.buffer, count_at, t->max_draws, 16);
 	else
@@ -41,7 +41,7 @@ static void frame_draw(struct relief_terrain *t, struct relief_terrain_view *v, 
 {
 	const float sky[4] = { 0.62f, 0.74f, 0.88f, 1.0f };
 	relief_vk_target_begin(target, cmd, sky, 0.0f); /* reversed Z */
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->draw_layout, 0, 1, &v->set[v->parity], 0, NULL);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, t->prog->draw_layout, 0, 1, &v->set[v->parity], 0, NULL);
 	if (v->stats_pool)
 		vkCmdBeginQuery(cmd, v->stats_pool, 0, 0);
 	/* With back faces culled, the quads the rasteriser may clip (the clipped list,
@@ -233,21 +233,21 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 	pass_end(v, cmd, RELIEF_LOD_PASS_SETUP);
 	VkDescriptorSet set = v->set[v->parity];
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select_layout, 0, 1, &set, 0, NULL);
-	vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->select_layout, 0, 1, &set, 0, NULL);
+	vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
 	if (sp.levels >= 7) {
 		/* Forced splits (lod_force.comp): levels 1 .. L - 6, where a patch could otherwise
 		 * be drawn beside one 5 levels finer; one workgroup sweeps them to a fixed point.
 		 * Nothing for shallower trees. */
-		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->force);
+		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->force);
 		vkCmdDispatch(cmd, 1, 1, 1);
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
 	}
 	/* One pass per level over its frontier, each sized by the one before (lod_select.comp). */
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->select);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->select);
 	for (uint32_t l = 0; l < sp.levels; l++) {
-		vkCmdPushConstants(cmd, t->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, offsetof(struct select_push, level),
+		vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, offsetof(struct select_push, level),
 		                   sizeof(l), &l);
 		vkCmdDispatchIndirect(cmd, v->passes.buffer, 16 * (VkDeviceSize)l);
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
@@ -260,8 +260,8 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	                      (opts->keep_empty_blocks ? MODE_KEEP_EMPTY_BLOCKS : 0u) |
 	                      (view->loose_transitions ? MODE_LOOSE_STRIPS : 0u);
 	dp.mode = mode;
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->factors_layout, 0, 1, &set, 0, NULL);
-	vkCmdPushConstants(cmd, t->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->factors_layout, 0, 1, &set, 0, NULL);
+	vkCmdPushConstants(cmd, t->prog->factors_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(dp), &dp);
 	/* The border edges and corners first (lod_borders.comp, which also sizes the factor
 	 * pass and decides about back faces), then every quad, as many groups as they need. */
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, lp->borders);
@@ -278,9 +278,9 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	        VK_ACCESS_SHADER_READ_BIT);
 	pass_end(v, cmd, RELIEF_LOD_PASS_FACTORS);
 	/* Different push ranges make the layouts incompatible for the set: bind it again. */
-	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands_layout, 0, 1, &set, 0, NULL);
-	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->commands);
-	vkCmdPushConstants(cmd, t->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
+	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->commands_layout, 0, 1, &set, 0, NULL);
+	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->commands);
+	vkCmdPushConstants(cmd, t->prog->commands_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(cp), &cp);
 	vkCmdDispatch(cmd, 1, 1, 1);
 	barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 	        VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |

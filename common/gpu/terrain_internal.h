@@ -6,6 +6,7 @@
 
 #include <stdbool.h>
 #include <stdint.h>
+#include <pthread.h>
 
 #include "terrain.h"
 
@@ -179,23 +180,34 @@ struct draw_pipelines {
 	VkPipeline fill, cull, wire, mesh_fill, mesh_cull;
 };
 
-struct relief_terrain {
-	struct relief_vk *vk;
-	const struct relief_file *file;
-	struct relief_patch_cache *cache;
-	struct relief_vk_buffer info, windows;
-	VkBufferView info_view, windows_view; /* bindings 0 and 22 (RGBA32F, RGBA32UI texels) */
+/* The layouts and compute pipelines of the terrain's LOD passes: the same for every
+ * terrain (nothing in them depends on the file, the cache or the target), so a device makes
+ * them once, at its first terrain, and keeps them (relief_vk_shared(), terrain.c). */
+struct terrain_program {
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
 	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
 	VkPipeline select, force, commands;
 	/* The factor and border passes per kind of frame: [0] relief's without and [1] with
 	 * geomorphing, [2] chunked LOD's (RELIEF_FINE_FULL), [3] the distance baseline's; each
-	 * made when a frame first needs it (terrain_lod_pipelines_create()). */
+	 * made when a frame on the device first needs it (terrain_lod_pipelines_create()),
+	 * under lock. */
 	struct lod_pipelines lod[4];
-	/* The draw pipelines, [0] for views without geomorphing, [1] for views with it
-	 * (relief_view.morph: the evaluation shader's MORPH_CODE), each made when a frame first
-	 * needs it (terrain_draw_pipelines_create()). */
+	pthread_mutex_t lock;
+	bool locked; /* lock was initialised */
+};
+
+struct relief_terrain {
+	struct relief_vk *vk;
+	const struct relief_file *file;
+	struct relief_patch_cache *cache;
+	struct relief_vk_buffer info, windows;
+	VkBufferView info_view, windows_view; /* bindings 0 and 22 (RGBA32F, RGBA32UI texels) */
+	struct terrain_program *prog; /* the device's */
+	/* The draw pipelines, the terrain's own (they are made for the target's render pass),
+	 * [0] for views without geomorphing, [1] for views with it (relief_view.morph: the
+	 * evaluation shader's MORPH_CODE), each made when a frame first needs it
+	 * (terrain_draw_pipelines_create()). */
 	struct draw_pipelines draw[2];
 	VkRenderPass pass; /* the target's, which every pipeline draws into */
 	/* per_patch: block quads per drawn patch; max_quads: block and curtain quads of a frame

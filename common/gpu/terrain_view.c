@@ -80,7 +80,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 	};
 	if ((ret = relief_vk_check(vk, vkCreateDescriptorPool(vk->device, &pi, NULL, &v->pool), "vkCreateDescriptorPool")) < 0)
 		goto fail;
-	VkDescriptorSetLayout layouts[2] = { t->set_layout, t->set_layout };
+	VkDescriptorSetLayout layouts[2] = { t->prog->set_layout, t->prog->set_layout };
 	VkDescriptorSetAllocateInfo ai = {
 		.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
 		.descriptorPool = v->pool,
