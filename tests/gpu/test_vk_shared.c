@@ -112,6 +112,7 @@ static void test_failure_undone_and_not_kept(void **state)
 	struct thing *a = get(vk, 0, 0);
 	assert_true(a->made);
 	assert_string_equal(events, "c0d0c0");
+	gpu_test_assert_clean(vk);
 	relief_vk_destroy(vk);
 	assert_string_equal(events, "c0d0c0d0");
 }
@@ -126,6 +127,7 @@ static void test_kinds_bounded(void **state)
 	assert_null(get(vk, RELIEF_VK_MAX_SHARED, -ENOSPC));
 	assert_int_equal(n_events, 2 * RELIEF_VK_MAX_SHARED); /* nothing made for it */
 	assert_non_null(get(vk, 3, 0));                        /* the others still served */
+	gpu_test_assert_clean(vk);
 	relief_vk_destroy(vk);
 	assert_int_equal(n_events, 4 * RELIEF_VK_MAX_SHARED);
 }
@@ -163,6 +165,7 @@ static void test_threads_wait_for_one(void **state)
 		assert_true(((struct thing *)a[i].obj)->made);
 	}
 	assert_string_equal(events, "c0");
+	gpu_test_assert_clean(vk);
 	relief_vk_destroy(vk);
 }
 
