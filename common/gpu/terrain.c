@@ -109,8 +109,9 @@ static void program_destroy(struct relief_vk *vk, void *obj)
 static int program_create(struct relief_vk *vk, void *obj)
 {
 	struct terrain_program *p = obj;
-	if (pthread_mutex_init(&p->lock, NULL) != 0)
-		return -ENOMEM;
+	int ret = pthread_mutex_init(&p->lock, NULL);
+	if (ret != 0)
+		return -ret;
 	p->locked = true;
 	VkDescriptorSetLayoutBinding b[BINDINGS];
 	for (uint32_t i = 0; i < BINDINGS; i++)
@@ -120,7 +121,6 @@ static int program_create(struct relief_vk *vk, void *obj)
 		.bindingCount = BINDINGS,
 		.pBindings = b,
 	};
-	int ret;
 	if ((ret = relief_vk_check(vk, vkCreateDescriptorSetLayout(vk->device, &li, NULL, &p->set_layout),
 	                           "vkCreateDescriptorSetLayout")) < 0 ||
 	    (ret = layout_with_push(vk, p->set_layout, VK_SHADER_STAGE_COMPUTE_BIT, sizeof(struct select_push),
