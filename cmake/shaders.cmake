@@ -7,8 +7,9 @@
 # strip bounds' 1.9 MB as glslang writes it, 0.20 s for the 0.7 MB spirv-opt makes of it
 # (same results bit for bit); but GPU-assisted validation's instrumentation of the
 # optimised LOD passes gave lavapipe SPIR-V it refused ("Invalid back or cross-edge in
-# the CFG"), and the other shaders are small (docs/architecture.md). GENERATED: includes written at build time (by custom commands
-# that OUTPUT them); every shader may include them and is rebuilt when they change.
+# the CFG"), and the other shaders are small (docs/architecture.md).
+# GENERATED: includes written at build time (by custom commands that OUTPUT them); every
+# shader may include them and is rebuilt when they change.
 # TARGET becomes an INTERFACE library whose include directory holds the headers, so no
 # shader file is ever looked up at run time.
 function(relief_add_shaders target)
