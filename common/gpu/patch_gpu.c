@@ -164,9 +164,10 @@ static void memory_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkAcce
 }
 
 /* Images start in GENERAL and stay there (storage writes, sampling, copies).
- * Puts the pools into the GENERAL layout, and runs both passes once on a job that does
- * nothing (mode 2): drivers that compile pipelines at their first use (lavapipe does)
- * compile them here, not while the first frames wait for patches. */
+ * Puts the pools into the GENERAL layout, and runs the three passes once on a job that
+ * does nothing (mode 2): drivers that compile pipelines at their first use (lavapipe
+ * does) compile the device's shared ones here, at its first cache, not while the first
+ * frames wait for patches; a later cache's dispatches find them compiled. */
 static int init_layouts(struct relief_patch_cache *c)
 {
 	VkCommandBuffer cmd;
