@@ -20,7 +20,8 @@ struct relief_view {
 	uint32_t width, height;    /* viewport, pixels */
 	double znear, zfar;        /* metres */
 	double tau;                /* screen-space error threshold, pixels */
-	bool morph;                /* geomorph changes of a block's level (docs/lod.md, "Morphing") */
+	bool morph;                /* geomorph changes of a block's level, within tau at finer levels
+	                            * (docs/lod.md, "Morphing") */
 	/* The tessellator's transition strips left unbounded: fewer triangles (28-51 % fewer
 	 * at tau = 1 on the bundled DEMs), but a transition triangle may then exceed tau (by
 	 * up to 19 % where measured). Off (the default): every strip is bounded (docs/lod.md,

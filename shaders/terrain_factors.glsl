@@ -136,21 +136,28 @@ float allowed_error(vec4 c)
 // height (1 - t) c + t h, where h is the vertex's sample and c the level d + 1 surface there
 // (the mean of its two neighbours along an edge or a row, of its four diagonal neighbours at
 // a cell's centre). With t = 0 that drawn surface lies between level d + 1's two diagonal
-// triangulations at every point, so eps_{d+1} bounds it; with t = 1 it is level d; a blend
-// is bounded by (1 - t) eps_{d+1} + t eps_d. The least weight that keeps this bound within
-// the allowed error at every measuring point is t0 = (eps_{d+1} - allowed) / (eps_{d+1} -
-// eps_d); any larger t keeps it too. t = min(1, MORPH_RATE t0) moves continuously with the
-// camera: where level d + 1 just fails t is 0 and the picture is level d + 1's surface (but
-// for the diagonal: a coarse cell's centre takes the mean of both), so a change of level
-// no longer pops, and the blend is done within the first 1 / MORPH_RATE of the
-// level's error range. With t0 itself (a rate of 1) every block is always part-way and the
-// surface as coarse as tau allows: on a 48-pair Puget Sound flight the RMS error doubled
-// and popping at tau = 1 rose; a rate of 4 costs 5-30 % RMS error and lowers the largest
-// per-frame changes at every tau (docs/lod.md, "Morphing"). t travels as a morph byte m,
-// t = m / 256, rounded up (a larger t only lowers the bound); MORPH_FULL (255) means t = 1,
-// and is what a view without morphing (relief_view.morph, MORPH_CODE) and the baselines use:
-// their factor pass then works out no allowed error, and the evaluation shader skips the
-// blend for a quad whose bytes are all MORPH_FULL.
+// triangulations at every point, so eps_{d+1} bounds it; with t = 1 it is level d, within
+// eps_d; with one t at every corner, within (1 - t) eps_{d+1} + t eps_d. But a triangle of
+// a block's outer ring has corners on an edge, blended with the edge's weight, and inside,
+// with the interior's: with weights from t_lo to t_hi it is the surface at t_hi moved at
+// each corner by (t_k - t_hi) (h - c), and |h - c| <= eps_{d+1} (h is on the finest
+// surface, c on level d + 1's), so it lies within (1 - t_lo) eps_{d+1} + t_hi eps_d <=
+// (1 - t_lo) eps_{d+1} + eps_d. (The weight t0 that kept (1 - t) eps_{d+1} + t eps_d within
+// the allowed error, used until December 2026, put such triangles up to 1.04 tau in the
+// tests.) So every weight is at least t0 = (eps_{d+1} + eps_d - allowed) / eps_{d+1}, which
+// keeps that within the allowed error whatever the other corners' weights, and, so that t0
+// is 0 where level d + 1 stops passing (no jump when the level changes), a morphing view
+// takes level d + 1 only where eps_{d+1} + eps_d is within the allowed error
+// (level_passes()): it draws more triangles than a view without morphing (docs/lod.md).
+// The eps are the edge's or the interior's own (an edge's at least its blocks'), and the
+// allowed error is taken at the measuring points, as for the levels themselves.
+// t = min(1, MORPH_RATE t0) moves continuously with the camera; the blend is done within
+// the first 1 / MORPH_RATE of its range (a rate of 1 left every block part-way all the
+// time, with twice the RMS error on a 48-pair Puget Sound flight; docs/lod.md). t travels
+// as a morph byte m, t = m / 256, rounded up (a larger t only lowers the bound); MORPH_FULL
+// (255) means t = 1, and is what a view without morphing (relief_view.morph, MORPH_CODE)
+// and the baselines use: their factor pass then works out no allowed error, and the
+// evaluation shader skips the blend for a quad whose bytes are all MORPH_FULL.
 const uint MORPH_FULL = 255u;
 const float MORPH_RATE = 4.0;
 
@@ -161,12 +168,21 @@ uint morph_byte(vec4 eps, int d, float allowed)
 	if (!morph_on() || d >= 4)
 		return MORPH_FULL;
 	float coarse = eps[d], fine = d == 0 ? 0.0 : eps[d - 1]; // eps_{d+1}, eps_d (0 at full detail)
-	if (isinf(coarse))
+	if (isinf(coarse) || !(coarse > 0.0))
 		return MORPH_FULL;
-	if (!(coarse > fine))
-		return coarse <= allowed ? 0u : MORPH_FULL;
-	float t = clamp(MORPH_RATE * (coarse - allowed) / (coarse - fine), 0.0, 1.0);
+	float t = clamp(MORPH_RATE * (coarse + fine - allowed) / coarse, 0.0, 1.0);
 	return min(uint(ceil(t * 256.0)), MORPH_FULL);
+}
+
+// Whether level d (1..4) is fine enough where `allowed` is the largest error allowed:
+// eps_d within it, and, in a morphing view, eps_d + eps_{d-1} (eps_0 = 0, full detail),
+// the bound of a triangle whose corners are blended with any two weights (above).
+bool level_passes(vec4 eps, int d, float allowed)
+{
+	float e = eps[d - 1];
+	if (morph_on() && d >= 2)
+		e += eps[d - 2];
+	return e <= allowed;
 }
 
 // The coarsest level d whose error segment, measured at each of `n` points (clip space),
@@ -181,7 +197,7 @@ float error_factor(vec4 c[3], int n, vec4 eps, out uint morph)
 		allowed = min(allowed, allowed_error(c[i]));
 	int d = 4;
 	for (; d >= 1; d--)
-		if (eps[d - 1] <= allowed)
+		if (level_passes(eps, d, allowed))
 			break;
 	morph = morph_byte(eps, d, allowed);
 	return float(BLOCK_CELLS >> uint(d));
@@ -268,7 +284,7 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 	}
 	int d = top;
 	for (; d >= 1; d--)
-		if (eps[d - 1] <= allowed)
+		if (level_passes(eps, d, allowed))
 			break;
 	// One level coarser than the finest edge makes a fine-edge strip (or a fan) along each
 	// edge at that level: kept only where its charge (strip_fine_at()) projects within tau

@@ -39,7 +39,7 @@ static void fly_usage(FILE *f)
 		"  --size WxH         per channel (default 640x360)\n"
 		"  --fov DEG          vertical field of view (default 50)\n"
 		"  --tau PX           screen-space error threshold in pixels (default 1)\n"
-		"  --morph            geomorph changes of level (a blend, not a pop; docs/lod.md)\n"
+		"  --morph            geomorph changes of level (a blend, not a pop; finer levels: more triangles)\n"
 		"  --budget MIB       GPU memory for the patch cache (default 256)\n"
 		"  --workers N        entropy-decoding threads (default 1)\n"
 		"  --out DIR          write every frame: DIR/frame-NNNNN[-cK].png\n"

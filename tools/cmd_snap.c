@@ -33,7 +33,7 @@ static void snap_usage(FILE *f)
 		"      --size WxH       viewport (default 1280x720)\n"
 		"      --tau PX         screen-space error threshold in pixels (default 1)\n"
 		"      --wire           overlay the wireframe\n"
-		"      --morph          geomorph changes of level (a blend, not a pop; docs/lod.md)\n"
+		"      --morph          geomorph changes of level (a blend, not a pop; finer levels: more triangles)\n"
 		"      --loose          leave the tessellator's transition strips unbounded: fewer\n"
 		"                       triangles, which may exceed tau (docs/lod.md)\n"
 		"      --depth FILE     distance along the view axis per pixel: little-endian float32,\n"
