@@ -76,12 +76,12 @@ static void mesh_within_tau_view(struct bound_scene *b, const char *what, const 
 			uint64_t n = mesh_measure(b, &v, NULL, tri, &e);
 			print_mesh_error(what, p, v.tau, v.morph, n, &e);
 			assert_true(e.triangles > 0 && e.points > e.triangles);
-			/* Every triangle within tau: the regular ones by the block errors, the
-			 * transition strips by their bounds (patch_strips.comp); morphed, with the
-			 * blend's share of them (morph_byte(), docs/lod.md "Morphing": until
-			 * December 2026 a weight that ignored the other weights of a triangle's
-			 * corners put Puget Sound pose 1 at 1.016 tau (tau = 0.5) and Mont Blanc
-			 * pose 0 at 1.039 tau (tau = 1) here). */
+			/* Every triangle within tau: the regular ones by the block errors (morphed,
+			 * with the blend weights' bound: morph_byte(), docs/lod.md "Morphing"; until
+			 * December 2026 weights that ignored a triangle's other corners' weights put
+			 * Puget Sound pose 1 at 1.016 tau (tau = 0.5) and Mont Blanc pose 0 at 1.039
+			 * tau (tau = 1) here), the transition strips by their bounds
+			 * (patch_strips.comp; morphed, as measured). */
 			assert_true(e.max_px_regular_worse <= v.tau);
 			assert_true(e.max_px <= v.tau);
 			assert_true(e.max_px_transition <= v.tau);
