@@ -244,12 +244,17 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
 	}
-	/* One pass per level over its frontier, each sized by the one before (lod_select.comp). */
+	/* The top levels in one pass, an invocation per patch; then one pass per level over
+	 * its frontier, each sized by the one before (lod_select.comp). */
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->select);
-	for (uint32_t l = 0; l < sp.levels; l++) {
+	const uint32_t top = sp.levels < SELECT_TOP_LEVELS ? sp.levels : SELECT_TOP_LEVELS;
+	for (uint32_t l = 0; l < sp.levels; l = l == 0 ? top : l + 1) {
 		vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, offsetof(struct select_push, level),
 		                   sizeof(l), &l);
-		vkCmdDispatchIndirect(cmd, v->passes.buffer, 16 * (VkDeviceSize)l);
+		if (l == 0)
+			vkCmdDispatch(cmd, (relief_level_first_id(top) + 63) / 64, 1, 1);
+		else
+			vkCmdDispatchIndirect(cmd, v->passes.buffer, 16 * (VkDeviceSize)l);
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
 		        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT,
 		        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);

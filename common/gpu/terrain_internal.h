@@ -26,6 +26,10 @@ struct want {
  * drawn heights are floats of at most ~10 km, rounded to ~1 mm. */
 #define FACE_CULL_MARGIN 0.01
 
+/* Levels 0 .. SELECT_TOP_LEVELS - 1 are visited by the selection's first dispatch, an
+ * invocation per patch (lod_select.comp's TOP_LEVELS, the same number). */
+#define SELECT_TOP_LEVELS 4u
+
 /* std430 twins of the shaders' push blocks and structs (shaders/terrain_*.glsl). */
 struct select_push {
 	float vp[16];

@@ -489,6 +489,92 @@ static void test_requests_look_ahead(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* The ancestor of patch id at level a (a at most id's level). */
+static uint32_t ancestor_at(const struct scene *s, uint32_t id, uint32_t a)
+{
+	uint32_t l, px, py;
+	assert_true(relief_patch_coords(&s->f->layout, id, &l, &px, &py));
+	assert_true(a <= l);
+	return relief_patch_id(a, px >> (l - a), py >> (l - a));
+}
+
+/* Part of the tree resident: a patch is drawn only where every ancestor is resident with
+ * all four children there; elsewhere the deepest such ancestor draws the area and its
+ * resident descendants are visited (for their requests and use) but not drawn. Puget
+ * Sound packed with 65-sample patches, a tree of 5 levels: levels 0-3 visited by the
+ * selection's first dispatch, an invocation per patch that decides from its ancestors,
+ * level 4 through its frontier (lod_select.comp). Everything resident but one patch the
+ * view splits the parent of at each of levels 4, 3 and 2, and their subtrees: each
+ * missing patch's parent is drawn and none of its siblings, and the GPU's selection and
+ * requests equal the CPU reference's. Negative controls, run when the test was written: a
+ * first dispatch that takes every ancestor's children as there draws 63 patches where the
+ * CPU draws 61, frontier entries all marked 66 (no other test failed with either). */
+static void test_partial_tree_matches_cpu(void **state)
+{
+	struct scene s;
+	struct relief_dem dem;
+	test_dem_load(DEM_PUGET, &dem);
+	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, 320, 180, 0);
+	relief_dem_finish(&dem);
+	const uint32_t n = s.f->hdr.patch_count, levels = s.f->hdr.levels;
+	assert_int_equal(levels, 5);
+	struct relief_view v = {
+		.eye = { 78000, 78000, 1500 }, .target = { 90000, 90000, 0 }, /* over the middle, low */
+		.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 1.0,
+	};
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *want = malloc(4 * n), n_want;
+	memset(resident, 1, n);
+	relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
+	/* Missing: for l = 4, 3, 2 the level-l ancestor of a patch drawn at level l or finer,
+	 * each under another level-1 patch, so that every ancestor of a missing patch's parent
+	 * has all of its children there. */
+	uint32_t missing[3], n_missing = 0;
+	for (uint32_t l = levels - 1; l >= 2; l--) {
+		for (uint32_t id = relief_level_first_id(l); id < n && n_missing < levels - l; id++) {
+			bool apart = draw[id] != 0;
+			for (uint32_t k = 0; k < n_missing; k++)
+				apart = apart && ancestor_at(&s, missing[k], 1) != ancestor_at(&s, id, 1);
+			if (apart)
+				missing[n_missing++] = ancestor_at(&s, id, l);
+		}
+		assert_int_equal(n_missing, levels - l);
+	}
+	for (uint32_t id = 0; id < n; id++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&s.f->layout, id, &l, &px, &py));
+		for (uint32_t k = 0; k < n_missing; k++) {
+			uint32_t lk, qx, qy;
+			assert_true(relief_patch_coords(&s.f->layout, missing[k], &lk, &qx, &qy));
+			if (l >= lk && ancestor_at(&s, id, lk) == missing[k])
+				resident[id] = 0;
+		}
+	}
+	for (uint32_t l = 0; l < levels; l++) {
+		for (uint32_t id = relief_level_first_id(l); id < relief_level_first_id(l + 1); id++)
+			if (resident[id])
+				assert_int_equal(relief_patch_cache_request(s.cache, id, 0), 0);
+		assert_int_equal(relief_patch_cache_flush(s.cache, 1), 0);
+	}
+	for (uint32_t id = 0; id < n; id++)
+		assert_int_equal(relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT, resident[id]);
+	/* The CPU reference's own semantics first: each missing patch's parent drawn, none of
+	 * its siblings. */
+	relief_lod_select(s.f, &v, resident, prev, next, draw, want, n, &n_want);
+	for (uint32_t k = 0; k < n_missing; k++) {
+		uint32_t l, px, py;
+		assert_true(relief_patch_coords(&s.f->layout, missing[k], &l, &px, &py));
+		assert_true(draw[relief_patch_id(l - 1, px / 2, py / 2)]);
+		for (uint32_t c = 0; c < 4; c++)
+			assert_false(draw[relief_patch_id(l, (px & ~1u) + (c & 1), (py & ~1u) + (c >> 1))]);
+		print_message("missing patch %u (level %u): its parent drawn\n", missing[k], l);
+	}
+	assert_true(fresh_view_matches_cpu(&s, &v, 2, NULL) > 0);
+	free(resident); free(prev); free(next); free(draw); free(want);
+	scene_close(&s);
+	gpu_test_assert_clean(vk);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -500,6 +586,7 @@ int main(void)
 		cmocka_unit_test(test_forced_splits_cascade),
 		cmocka_unit_test(test_strip_tree_matches_cpu),
 		cmocka_unit_test(test_requests_look_ahead),
+		cmocka_unit_test(test_partial_tree_matches_cpu),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }
