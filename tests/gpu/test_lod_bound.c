@@ -62,6 +62,27 @@ static void test_watertight_and_error_bound_alps(void **state)
 	watertight_and_error_bound(DEM_ALPS, alps_bound_poses, NULL, ALPS_BOUND_POSES);
 }
 
+/* Cameras exactly in the plane of the terrain's outer edge, which see that edge's curtain
+ * edge-on (docs/lod.md, known issues: when every patch border had a skirt, such a view
+ * once put single pixels at a wrong depth): along each of Puget Sound's four edges (x = 0
+ * and 163840 m, y = 0 and 163840 m), low and high, one on a corner, all above the
+ * surface: watertight and within tau like any other view, without and with morphing.
+ * (From inside the terrain, e.g. 800 m up on the east edge in the Cascades, the frame
+ * shows the far curtain's inner face under the terrain's underside, in the reference
+ * too; the bound does not apply there, test_hard_views checks such views for NaN.) */
+static void test_edge_plane_views(void **state)
+{
+	const struct pose poses[] = {
+		{ { 0, 80000, 300 }, { 0, 160000, 0 } },
+		{ { 0, 80000, 2000 }, { 0, 120000, 0 } },
+		{ { 163840, 20000, 5000 }, { 163840, 150000, 1500 } },
+		{ { 80000, 0, 5000 }, { 160000, 0, 1000 } },
+		{ { 81920, 163840, 5000 }, { 0, 163840, 1000 } },
+		{ { 0, 0, 5000 }, { 0, 163840, 500 } },
+	};
+	watertight_and_error_bound(DEM_PUGET, poses, NULL, sizeof(poses) / sizeof(poses[0]));
+}
+
 /* Banked and straight-down cameras (relief_view.roll, relief_view_axes()): watertight and
  * within tau like any other view. */
 static void test_banked_and_nadir_views(void **state)
@@ -743,6 +764,7 @@ int main(void)
 		cmocka_unit_test(test_no_lone_centre_fan),
 		cmocka_unit_test(test_morph_continuous),
 		cmocka_unit_test(test_hard_views),
+		cmocka_unit_test(test_edge_plane_views),
 		cmocka_unit_test(test_flat_sea),
 		cmocka_unit_test(test_cliffs),
 		cmocka_unit_test(test_huge_coordinates),
