@@ -210,15 +210,15 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
 	if (opts->mesh)
 		mesh_frame_begin(v, cmd, &o);
-	/* The selection visits the patches of its frontiers only and writes their split state:
-	 * every other patch's is 0 (not split). Level 0's frontier is the root, which every
-	 * ancestor (none) lets be drawn. */
+	/* The selection visits the patches on the view's tree only and writes their split
+	 * state: every other patch's is 0 (not split). The frontiers (levels SELECT_TOP_LEVELS
+	 * and deeper; the first dispatch visits the levels above without one) start empty:
+	 * no workgroups, no entries. */
 	vkCmdFillBuffer(cmd, v->split[v->parity ^ 1].buffer, 0, VK_WHOLE_SIZE, 0);
 	uint32_t passes[RELIEF_MAX_LEVELS][4];
 	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
-		memcpy(passes[l], (uint32_t[4]){ l == 0, 1, 1, l == 0 }, sizeof(passes[l]));
+		memcpy(passes[l], (uint32_t[4]){ 0, 1, 1, 0 }, sizeof(passes[l]));
 	vkCmdUpdateBuffer(cmd, v->passes.buffer, 0, sizeof(passes), passes);
-	vkCmdUpdateBuffer(cmd, v->frontier.buffer, 0, 8, (uint32_t[2]){ 0x80000000u, 0 });
 	/* The first view drawn in a frame clears the frame's half of the use distances; the
 	 * selection (its half: frame & 1) takes the least over the frame's views. */
 	bool reset;
