@@ -466,14 +466,16 @@ static double lod_pop(struct scene *s, const float *finest, uint32_t fw, uint32_
 	return worst;
 }
 
-/* The triangles view v draws, converged (its mesh capture counts them; `depth` takes the
- * picture's depths). */
-static int64_t drawn_triangles(struct scene *s, const struct relief_view *v, float *depth)
+/* The triangles v0 moved `along` metres (view_along()), morphing or not, draws, converged
+ * (its mesh capture counts them; `depth` takes the picture's depths). */
+static int64_t drawn_triangles(struct scene *s, const struct relief_view *v0, double along, bool morph,
+                               float *depth)
 {
 	struct relief_terrain_stats st;
-	struct relief_view w = *v;
+	struct relief_view v = view_along(v0, along);
+	v.morph = morph;
 	const struct relief_draw_options o = { .mesh = true };
-	render_with(s, &w, &o, depth, &st);
+	render_with(s, &v, &o, depth, &st);
 	int64_t n = relief_terrain_view_mesh(s->view, NULL, NULL, 0);
 	assert_true(n > 0);
 	return n;
@@ -491,24 +493,18 @@ static double level_changes(struct scene *s, const float *finest, uint32_t fw, u
 {
 	double start = 0, worst = -1;
 	for (int k = 0; k < changes; k++) {
-		struct relief_view v = view_along(v0, start);
-		v.morph = morph;
-		const int64_t n0 = drawn_triangles(s, &v, own);
+		const int64_t n0 = drawn_triangles(s, v0, start, morph, own);
 		double a = start, b = start;
 		for (;;) {
 			b += 250.0 / 60.0;
 			assert_true(b < start + 500);
-			v = view_along(v0, b);
-			v.morph = morph;
-			if (drawn_triangles(s, &v, own) != n0)
+			if (drawn_triangles(s, v0, b, morph, own) != n0)
 				break;
 			a = b;
 		}
 		while (b - a > 0.01) {
 			double m = 0.5 * (a + b);
-			v = view_along(v0, m);
-			v.morph = morph;
-			if (drawn_triangles(s, &v, own) != n0)
+			if (drawn_triangles(s, v0, m, morph, own) != n0)
 				b = m;
 			else
 				a = m;
