@@ -83,6 +83,18 @@ uint child_entry(uint l, uvec2 p, uint k) { return entry_at(l + 1u, ivec2(2u * p
 
 bool child_missing(uint c) { return c != NO_ENTRY && info_at(c).skirt >= 0.0 && layer_at(c) < 0; }
 
+// Whether none of the children of the patch at p of level l is missing; ce: their entries
+// (child_entry(), row-major).
+bool children_there(uint l, uvec2 p, out uint ce[4])
+{
+	bool there = true;
+	for (uint k = 0u; k < 4u; k++) {
+		ce[k] = child_entry(l, p, k);
+		there = there && !child_missing(ce[k]);
+	}
+	return there;
+}
+
 // Appends the children of a patch of level l that have entries (ce: their entries, ids: their
 // ids, row-major) to level l + 1's frontier.
 void push_children(uint l, uint ce[4], uint ids[4], bool reachable, float d)
@@ -130,11 +142,7 @@ void visit(uint l, uint id, uint px, uint py, uint e, bool marked, float parent_
 	if (wish) {
 		uint c0 = first_id(l + 1u) + 2u * py * (2u << l) + 2u * px, row = 2u << l;
 		uint ids[4] = uint[4](c0, c0 + 1u, c0 + row, c0 + row + 1u), ce[4];
-		bool there = true;
-		for (uint k = 0u; k < 4u; k++) {
-			ce[k] = child_entry(l, uvec2(px, py), k);
-			there = there && !child_missing(ce[k]);
-		}
+		bool there = children_there(l, uvec2(px, py), ce);
 		// The top levels' patches are each visited by their own invocation of the first
 		// dispatch (main()); deeper ones through the frontiers.
 		if (l + 1u >= TOP_LEVELS)
@@ -213,10 +221,8 @@ void main()
 			box(a, ax, ay, ae, bmin, bmax);
 			float d = distance_to(bmin, bmax);
 			on_tree = on_tree && wants_split(a, ae, d) && !culled(bmin, bmax);
-			bool there = layer_at(ae) >= 0;
-			for (uint k = 0u; k < 4u; k++)
-				there = there && !child_missing(child_entry(a, uvec2(ax, ay), k));
-			marked = marked && there;
+			uint ce[4];
+			marked = marked && layer_at(ae) >= 0 && children_there(a, uvec2(ax, ay), ce);
 			parent_d = d;
 		}
 		if (on_tree)
