@@ -7,8 +7,8 @@
 // Read as six RGBA32F texels of a uniform texel buffer, not as a storage buffer: every lane
 // reads the same words, and lavapipe (Mesa 22.3) loads a storage buffer lane by lane even
 // at a uniform address, 20 scalar loads per lane where a texel fetch is one gather per
-// texel (docs/lod.md, "The draw camera and the per-patch tables read as texels"). Only
-// the frame's transfer writes it.
+// texel (docs/lod-performance.md, "The draw camera and the per-patch tables read as
+// texels"). Only the frame's transfer writes it.
 layout(binding = 15) uniform samplerBuffer draw_camera;
 
 mat4 draw_vp()

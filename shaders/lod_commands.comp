@@ -64,7 +64,8 @@ void lists_write(uint total)
 	barrier();
 	// The exclusive prefix sums by one lane: a CPU implementation runs a loop in every lane
 	// (64 x 64 shared loads) however few lanes need it, and this took three quarters of the
-	// pass on lavapipe (docs/lod.md, "The draw camera and the per-patch tables read as texels").
+	// pass on lavapipe (docs/lod-performance.md, "The draw camera and the per-patch tables
+	// read as texels").
 	if (lane == 0u) {
 		uvec2 sum = uvec2(0u);
 		for (uint j = 0u; j < 64u; j++) {

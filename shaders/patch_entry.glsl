@@ -12,8 +12,8 @@
 // entry's resident patch, -1 when none) are read as uniform texel buffers: no shader writes
 // them, and the searches read them at lane-varying indices, which lavapipe (Mesa 22.3) loads
 // from a storage buffer lane by lane and from a texel buffer with one gather
-// (relief_vk_texel_view_create(); docs/lod.md, "The draw camera and the per-patch tables
-// read as texels").
+// (relief_vk_texel_view_create(); docs/lod-performance.md, "The draw camera and the
+// per-patch tables read as texels").
 layout(binding = 22) uniform usamplerBuffer window_texels;
 layout(binding = 0) uniform samplerBuffer info_texels;
 layout(binding = 1) uniform isamplerBuffer layer_texels;
