@@ -334,6 +334,12 @@ int cmd_fly(int argc, char **argv)
 	double gpu_med = bench_median(s.gpu_ms, frames), gpu_p95 = bench_quantile(s.gpu_ms, frames, 0.95);
 	double busy_med = bench_median(s.busy_ms, frames);
 	double tri_med = bench_median(s.triangles, frames);
+	/* A device without pipeline statistics counts no triangles: said so, not printed as 0. */
+	char tri_json[32] = "null", tri_text[64] = "triangles not counted (no pipeline statistics)";
+	if (g.vk->has.pipeline_statistics) {
+		snprintf(tri_json, sizeof(tri_json), "%.0f", tri_med);
+		snprintf(tri_text, sizeof(tri_text), "triangles median %.0f", tri_med);
+	}
 	long first = s.first_complete == UINT32_MAX ? -1 : (long)s.first_complete;
 	long last = s.last_incomplete == UINT32_MAX ? -1 : (long)s.last_incomplete;
 	if (json) {
@@ -342,14 +348,14 @@ int cmd_fly(int argc, char **argv)
 		printf(",\"frames\":%u,\"channels\":%u,\"width\":%u,\"height\":%u,\"tau_px\":%g,\"fps\":%g,\"seconds\":%g,"
 		       "\"wall_ms_median\":%.3f,\"wall_ms_p95\":%.3f,\"wall_ms_max\":%.3f,\"update_ms_median\":%.4f,"
 		       "\"update_ms_max\":%.4f,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,\"gpu_busy_ms_median\":%.3f,"
-		       "\"triangles_median\":%.0f,"
+		       "\"triangles_median\":%s,"
 		       "\"frames_incomplete\":%u,\"first_complete_frame\":%ld,\"first_complete_ms\":%.1f,"
 		       "\"last_incomplete_frame\":%ld,"
 		       "\"decoded\":%llu,\"evicted\":%llu,\"bad\":%llu,\"layers_used\":%u,\"layers\":%u,\"budget_mib\":%u,"
 		       "\"workers\":%u,\"morph\":%s,\"face_culled_draws\":%u,\"pool_bytes\":%llu,\"table_bytes\":%llu,"
 		       "\"terrain_bytes\":%llu,\"view_bytes\":%llu",
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
-		       gpu_med, gpu_p95, busy_med, tri_med, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
+		       gpu_med, gpu_p95, busy_med, tri_json, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
 		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers,
 		       morph ? "true" : "false", culled_draws, (unsigned long long)cs.bytes, (unsigned long long)cs.table_bytes,
 		       (unsigned long long)relief_terrain_bytes(g.terrain), (unsigned long long)view_bytes);
@@ -368,8 +374,8 @@ int cmd_fly(int argc, char **argv)
 		printf("  GPU ms per frame   median %.2f  p95 %.2f", gpu_med, gpu_p95);
 		if (channels > 1)
 			printf(" (first channel's start to last one's end; the channels' own times add up to %.2f)", busy_med);
-		printf("; triangles median %.0f; back faces culled in %u of %u draws (camera above the surface)\n", tri_med,
-		       culled_draws, frames * channels);
+		printf("; %s; back faces culled in %u of %u draws (camera above the surface)\n", tri_text, culled_draws,
+		       frames * channels);
 		printf("  detail             %u of %u frames drew a parent for a missing patch; ", s.incomplete, frames);
 		if (first < 0)
 			printf("no frame complete (the budget or the track's length), ");

@@ -287,12 +287,22 @@ int cmd_snap(int argc, char **argv)
 	}
 	struct relief_patch_cache_stats cs;
 	relief_patch_cache_stats(g.cache, &cs);
-	printf("relief snap: wrote %s (%ux%u), tau %g px: %u patches in %u draws, %llu triangles, GPU %.2f ms "
-	       "(LOD compute %.2f ms, of which selection %.2f ms), back faces %s (%u quads the rasteriser may clip "
-	       "kept them), %u frames to converge, %llu patches decoded, %u requests left\n",
-	       output, width, height, tau, st.patches, st.draws, (unsigned long long)st.triangles, st.gpu_ns / 1e6,
-	       st.lod_ns / 1e6, st.select_ns / 1e6, st.face_culled ? "culled" : "drawn (the camera may be below the surface)",
-	       st.clipped_quads, frames, (unsigned long long)cs.decoded, st.requests);
+	/* What the device cannot count or time is said so, not printed as 0. */
+	char tri[64], gpu[96];
+	if (g.vk->has.pipeline_statistics)
+		snprintf(tri, sizeof(tri), "%llu triangles", (unsigned long long)st.triangles);
+	else
+		snprintf(tri, sizeof(tri), "triangles not counted (no pipeline statistics)");
+	if (g.vk->timestamp_valid_bits)
+		snprintf(gpu, sizeof(gpu), "GPU %.2f ms (LOD compute %.2f ms, of which selection %.2f ms)", st.gpu_ns / 1e6,
+		         st.lod_ns / 1e6, st.select_ns / 1e6);
+	else
+		snprintf(gpu, sizeof(gpu), "GPU time not measured (no timestamps on this queue)");
+	printf("relief snap: wrote %s (%ux%u), tau %g px: %u patches in %u draws, %s, %s, back faces %s (%u quads the "
+	       "rasteriser may clip kept them), %u frames to converge, %llu patches decoded, %u requests left\n",
+	       output, width, height, tau, st.patches, st.draws, tri, gpu,
+	       st.face_culled ? "culled" : "drawn (the camera may be below the surface)", st.clipped_quads, frames,
+	       (unsigned long long)cs.decoded, st.requests);
 	if (exact && (ret = snap_exact(f, &g, tv, &view, 4u * h->levels + 5u, st.triangles)) < 0)
 		goto out;
 	status = g.vk->validation && atomic_load(&g.vk->validation_messages) ? 1 : 0;

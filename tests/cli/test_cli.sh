@@ -317,11 +317,15 @@ same_channels_sky_only "$tmp/fly"
 vkcheck fly-validated 0 "$relief" fly "$tmp/ps.relief" --track "$tmp/good.track" --fps 16 --channels 2 --size 48x32 \
 	--morph --budget 2 --workers 2 --validation --out "$tmp/flyv"
 expect_text fly-validated-summary "17 frames of 2 channel(s)"
+expect_text fly-validated-triangles "; triangles median "
 same_channels_sky_only "$tmp/flyv"
 cmp -s "$tmp/flyv/frame-00016-c0.png" "$tmp/flyv/frame-00016-c1.png" &&
 	{ echo "FAIL fly channels: the last validated frame has the same picture in both channels"; fails=$((fails + 1)); }
 RELIEF_GPU_AV=1 vkcheck snap-validated 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 \
 	--look 128480,79200,3000 --size 96x54 -o "$tmp/v.png" --depth "$tmp/v.f32" --wire --morph --validation
+# GPU-assisted validation leaves the device without pipeline statistics (vk.h): the count is
+# said to be missing, not printed as 0.
+expect_text snap-validated-uncounted "draws, triangles not counted (no pipeline statistics), GPU "
 printf '0 60000 40000 3000 45 -10 0\n0 61000 41000 3000 90 -10 0\n' >"$tmp/bad.track"
 check fly-bad-track 2 "$relief" fly "$tmp/ps.relief" --track "$tmp/bad.track"
 expect_text fly-bad-track-named "bad.track: line 2: time 0 does not increase"
