@@ -8,7 +8,10 @@ layout(std430, binding = 5) buffer Counters {
 	// highest block near it, an ordered key (height_key()) while the selection raises it,
 	// metres (float bits) once lod_borders.comp has decided; the decision the draws use.
 	uint face_culled; uint found; uint near_high; uint draw_culled;
-	// Draw records of the shown list for the culling pipeline, for the other, of the
-	// clipped list, and the quads in that list (lod_commands.comp).
-	uvec4 draw_split;
+	// Draw records of the shown list's quads without seals for the culling pipeline, for
+	// the other, of the clipped list's, and the quads in the clipped list; draw_sealed the
+	// same for the quads with seals, but its last word the shown list's records of them;
+	// the quads with seals (lod_commands.comp).
+	uvec4 draw_split, draw_sealed;
+	uint sealed_quads;
 } counters;

@@ -127,8 +127,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		// not worked out (only its own control shader reads them; each neighbour computes
 		// a shared edge's factor itself). Everything it draws lies in its box unless a
 		// border takes a coarser patch's heights (a seal): such a block is kept.
-		bool unsealed = (seal.x & 7u) == 0u && (seal.y & 7u) == 0u && seal.w == 0u;
-		uint clip = unsealed ? block_clip(it, lo, range) : BLOCK_CROSSING;
+		uint clip = !seal_any(seal) ? block_clip(it, lo, range) : BLOCK_CROSSING;
 		if (cull && clip == BLOCK_UNSEEN) {
 			outer = vec4(0.0);
 			inner = vec2(0.0);
@@ -199,10 +198,12 @@ void main()
 	seals[q] = seal;
 	uvec4 ob = uvec4(o);
 	uvec2 ib = uvec2(i);
-	// A drawn quad that the rasteriser may clip goes to the clipped list (w = 1) when back
-	// faces are culled: the other pipeline draws it (docs/lod.md, "Back faces"), and
-	// lod_commands.comp lists it.
+	// A drawn quad that the rasteriser may clip goes to the clipped list (w bit 0) when back
+	// faces are culled: the other pipeline draws it (docs/lod.md, "Back faces"). One with a
+	// seal (w bit 1) is drawn by the pipelines with the seal code (SEAL_CODE), the others
+	// without it. lod_commands.comp lists them so.
 	bool listed = draw_culled() && ob.x != 0u && !inside;
+	bool sealed = seal_any(seal);
 	factors[q] = uvec4(ob.x | (ob.y << 8u) | (ob.z << 16u) | (ob.w << 24u), ib.x | (ib.y << 8u) | (m.y << 16u), m.x,
-	                   listed ? 1u : 0u);
+	                   (listed ? 1u : 0u) | (sealed ? 2u : 0u));
 }

@@ -140,6 +140,12 @@ layout(constant_id = 0) const bool MORPH_CODE = true;
 // 1: the fine LOD the factor and border passes compute factors for (FINE_*, the frame's
 // relief_draw_options.fine). The draw stages do not read it.
 layout(constant_id = 1) const uint FINE_LOD = 0u; // FINE_ERRORS
+// 2: the evaluation shader takes heights from coarser patches' drawn edges (the seals,
+// terrain_seal.glsl). Off in the pipelines that draw the quads whose seal record is empty
+// (lod_factors.comp marks the others; lod_commands.comp lists them apart), so that their
+// vertices, most of a frame's, do not run the seal code masked off (docs/lod.md, "Between
+// patches").
+layout(constant_id = 2) const bool SEAL_CODE = true;
 
 uint fine_lod() { return FINE_LOD; }
 

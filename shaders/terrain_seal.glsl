@@ -119,6 +119,9 @@ uint seal_side(uint j, float fc, int clayer, uint cmorph)
 	return j | (uint(int(BLOCK_CELLS) / int(fc)) << 3u) | ((uint(clayer) & 0xffffu) << 8u) | (cmorph << 24u);
 }
 
+// Whether a quad's seal record puts any of its vertices on a coarser patch's edge.
+bool seal_any(uvec4 seal) { return (seal.x & 7u) != 0u || (seal.y & 7u) != 0u || seal.w != 0u; }
+
 // The blend of a vertex's own height h with c, the mean of lo and hi, by morph byte `morph`
 // (terrain_factors.glsl).
 float morph_height(float lo, float h, float hi, uint morph)

@@ -88,7 +88,9 @@ void main()
 	// On a coarser patch's drawn edge (no crack between levels): the height sealed_height()
 	// gives, from the record the factor pass wrote, so that this shader does no search.
 	bool ex = si.x == 0 || si.x == last, ey = si.y == 0 || si.y == last, sealed = false;
-	if (ex && ey) {
+	if (!SEAL_CODE) {
+		// a quad without seals (lod_factors.comp): its own samples everywhere
+	} else if (ex && ey) {
 		sealed = in_seal.w != 0u;
 		if (sealed)
 			h = uintBitsToFloat(in_seal.z);

@@ -236,46 +236,51 @@ fail:
 }
 
 /* The kind of frame a pipeline is made for: the specialization constants of
- * shaders/terrain_draw.glsl, MORPH_CODE (0) and FINE_LOD (1). */
+ * shaders/terrain_draw.glsl, MORPH_CODE (0), FINE_LOD (1) and SEAL_CODE (2). */
 struct kind_spec {
 	VkBool32 morph;
 	uint32_t fine;
+	VkBool32 seal;
 };
 
-static const VkSpecializationMapEntry kind_spec_entries[2] = {
+static const VkSpecializationMapEntry kind_spec_entries[3] = {
 	{ 0, offsetof(struct kind_spec, morph), sizeof(VkBool32) },
 	{ 1, offsetof(struct kind_spec, fine), sizeof(uint32_t) },
+	{ 2, offsetof(struct kind_spec, seal), sizeof(VkBool32) },
 };
 
 static VkSpecializationInfo kind_spec_info(const struct kind_spec *k)
 {
-	return (VkSpecializationInfo){ 2, kind_spec_entries, sizeof(*k), k };
+	return (VkSpecializationInfo){ 3, kind_spec_entries, sizeof(*k), k };
 }
 
 int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wire, bool mesh)
 {
 	struct draw_pipelines *p = &t->draw[morph];
-	/* The draw stages read MORPH_CODE only. */
-	const struct kind_spec kind = { morph, RELIEF_FINE_ERRORS };
-	const VkSpecializationInfo spec = kind_spec_info(&kind);
+	/* The draw stages read MORPH_CODE and SEAL_CODE only. */
+	const struct kind_spec kind = { morph, RELIEF_FINE_ERRORS, true }, open = { morph, RELIEF_FINE_ERRORS, false };
+	const VkSpecializationInfo spec = kind_spec_info(&kind), open_spec = kind_spec_info(&open);
 	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
-	d.tese_spec = &spec;
-	/* Each slot with what it draws: solid, solid culled, wireframe; the capture's two. */
+	/* Each slot with what it draws: solid, solid culled, both without the seal code,
+	 * wireframe; the capture's two. */
 	struct {
 		VkPipeline *pipe;
-		bool want, cull_back, wireframe, capture;
+		bool want, cull_back, wireframe, capture, open;
 	} slots[] = {
-		{ &p->fill, true, false, false, false },
-		{ &p->cull, true, true, false, false },
-		{ &p->wire, wire && t->vk->has.fill_mode_non_solid, false, true, false },
-		{ &p->mesh_fill, mesh, false, false, true },
-		{ &p->mesh_cull, mesh, true, false, true },
+		{ &p->fill, true, false, false, false, false },
+		{ &p->cull, true, true, false, false, false },
+		{ &p->fill_open, true, false, false, false, true },
+		{ &p->cull_open, true, true, false, false, true },
+		{ &p->wire, wire && t->vk->has.fill_mode_non_solid, false, true, false, false },
+		{ &p->mesh_fill, mesh, false, false, true, false },
+		{ &p->mesh_cull, mesh, true, false, true, false },
 	};
 	for (size_t i = 0; i < sizeof(slots) / sizeof(slots[0]); i++) {
 		if (!slots[i].want || *slots[i].pipe)
 			continue;
 		d.cull_back = slots[i].cull_back;
 		d.wireframe = slots[i].wireframe;
+		d.tese_spec = slots[i].open ? &open_spec : &spec;
 		d.tese = slots[i].capture ? RELIEF_SPIRV(terrain_mesh_tese_spv) : RELIEF_SPIRV(terrain_tese_spv);
 		d.geom = slots[i].capture ? RELIEF_SPIRV(terrain_mesh_geom_spv) : (struct relief_vk_spirv){ 0 };
 		int ret = relief_vk_tess_pipeline_create(t->vk, &d, slots[i].pipe);
@@ -294,7 +299,7 @@ int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod 
 	struct terrain_program *prog = t->prog;
 	struct lod_pipelines *p = &prog->lod[fine == RELIEF_FINE_ERRORS ? (unsigned)morph : 1u + (unsigned)fine];
 	*out = p;
-	const struct kind_spec kind = { morph, (uint32_t)fine };
+	const struct kind_spec kind = { morph, (uint32_t)fine, true };
 	const VkSpecializationInfo spec = kind_spec_info(&kind);
 	int ret = 0;
 	pthread_mutex_lock(&prog->lock);
@@ -320,8 +325,8 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	VkDevice dev = t->vk->device;
 	for (int m = 0; m < 2; m++) {
 		const struct draw_pipelines *p = &t->draw[m];
-		VkPipeline draw[5] = { p->fill, p->cull, p->wire, p->mesh_fill, p->mesh_cull };
-		for (int i = 0; i < 5; i++)
+		VkPipeline draw[7] = { p->fill, p->cull, p->fill_open, p->cull_open, p->wire, p->mesh_fill, p->mesh_cull };
+		for (size_t i = 0; i < sizeof(draw) / sizeof(draw[0]); i++)
 			if (draw[i])
 				vkDestroyPipeline(dev, draw[i], NULL);
 	}

@@ -61,6 +61,10 @@ struct relief_terrain_stats {
 	/* With back faces culled: the quads drawn with them kept because the rasteriser may
 	 * clip them (their box is not well inside the clip volume; docs/lod.md, "Back faces") */
 	uint32_t clipped_quads;
+	/* The quads drawn with a seal (a vertex on a coarser patch's drawn edge), through the
+	 * pipelines with the seal code; the others' pipelines leave it out (docs/lod.md,
+	 * "Between patches") */
+	uint32_t sealed_quads;
 };
 
 int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, struct relief_patch_cache *cache,

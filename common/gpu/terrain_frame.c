@@ -16,13 +16,13 @@ static int want_cmp(const void *a, const void *b)
 	return x < y ? -1 : x > y;
 }
 
-/* Records draw records with `pipe` in mode `mode`: the shown list's (list 0) or the
- * clipped list's (1), as many as the count at `count_at` in the view's counters (all of
- * them where vkCmdDrawIndirectCount is missing: unused records hold zero instances). */
+/* Records draw records with `pipe` in mode `mode`: those of list part `part`, as many as
+ * the count at `count_at` in the view's counters (all of them where
+ * vkCmdDrawIndirectCount is missing: unused records hold zero instances). */
 static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd, VkPipeline pipe,
-                         struct draw_push *dp, uint32_t mode, int list, VkDeviceSize count_at)
+                         struct draw_push *dp, uint32_t mode, enum list_part part, VkDeviceSize count_at)
 {
-	VkDeviceSize at = 16 * (VkDeviceSize)t->max_draws * (VkDeviceSize)list;
+	VkDeviceSize at = 16 * (VkDeviceSize)t->max_draws * (VkDeviceSize)part;
 	dp->mode = mode;
 	vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
 	vkCmdPushConstants(cmd, t->prog->draw_layout, VK_SHADER_STAGE_ALL_GRAPHICS, 0, sizeof(*dp), dp);
@@ -30,6 +30,16 @@ static void draw_records(struct relief_terrain *t, struct relief_terrain_view *v
 		vkCmdDrawIndirectCount(cmd, v->cmds.buffer, at, v->counters.buffer, count_at, t->max_draws, 16);
 	else
 		vkCmdDrawIndirect(cmd, v->cmds.buffer, at, t->max_draws, 16);
+}
+
+/* A list's two parts (LIST_SHOWN or LIST_CLIPPED, then its sealed part): its quads without
+ * seals with `open`, counted at `open_at`, those with seals with `sealed`, at `sealed_at`. */
+static void draw_list(struct relief_terrain *t, struct relief_terrain_view *v, VkCommandBuffer cmd, VkPipeline open,
+                      VkPipeline sealed, struct draw_push *dp, uint32_t mode, enum list_part list,
+                      VkDeviceSize open_at, VkDeviceSize sealed_at)
+{
+	draw_records(t, v, cmd, open, dp, mode, list, open_at);
+	draw_records(t, v, cmd, sealed, dp, mode, list + 1, sealed_at);
 }
 
 /* The frame's draws, after its compute, into `target`: the shown list, and the clipped one
@@ -47,23 +57,27 @@ static void frame_draw(struct relief_terrain *t, struct relief_terrain_view *v, 
 	/* With back faces culled, the quads the rasteriser may clip (the clipped list,
 	 * lod_factors.comp) are drawn with them kept: the facing of a clipped triangle may be
 	 * decided by other arithmetic than its coverage, and a sliver upper side called
-	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). */
-	const VkDeviceSize split = offsetof(struct counters, draw_split);
-	VkPipeline fill, cull; /* pipes->fill and cull, or the mesh capture's twins */
-	mesh_pipelines(pipes, opts->mesh, &fill, &cull);
+	 * back-facing leaves a pinhole (docs/lod.md, "Back faces"). Each list's quads without
+	 * seals are drawn by pipelines without the seal code, the others' by pipelines with it. */
+	const VkDeviceSize draws = offsetof(struct counters, draws), split = offsetof(struct counters, draw_split),
+	                   sealed = offsetof(struct counters, draw_sealed);
+	const struct draw_pipelines p = mesh_pipelines(pipes, opts->mesh); /* or the mesh capture's */
 	for (int pass = 0; pass < (opts->wire && pipes->wire ? 2 : 1); pass++) {
 		if (pass == 1) { /* both lists: the clipped one is empty unless back faces are culled */
-			draw_records(t, v, cmd, pipes->wire, dp, mode | 1u, 0, offsetof(struct counters, draws));
-			draw_records(t, v, cmd, pipes->wire, dp, mode | 1u | MODE_CLIPPED_LIST, 1, split + 8);
-		} else if (gpu_cull) { /* one of the first two counts is 0 */
-			draw_records(t, v, cmd, cull, dp, mode, 0, split);
-			draw_records(t, v, cmd, fill, dp, mode, 0, split + 4);
-			draw_records(t, v, cmd, fill, dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+			draw_list(t, v, cmd, p.wire, p.wire, dp, mode | 1u, LIST_SHOWN, draws, sealed + 12);
+			draw_list(t, v, cmd, p.wire, p.wire, dp, mode | 1u | MODE_CLIPPED_LIST, LIST_CLIPPED, split + 8,
+			          sealed + 8);
+		} else if (gpu_cull) { /* of the first two calls, one has nothing to draw */
+			draw_list(t, v, cmd, p.cull_open, p.cull, dp, mode, LIST_SHOWN, split, sealed);
+			draw_list(t, v, cmd, p.fill_open, p.fill, dp, mode, LIST_SHOWN, split + 4, sealed + 4);
+			draw_list(t, v, cmd, p.fill_open, p.fill, dp, mode | MODE_CLIPPED_LIST, LIST_CLIPPED, split + 8,
+			          sealed + 8);
 		} else if (cpu_cull) {
-			draw_records(t, v, cmd, cull, dp, mode, 0, offsetof(struct counters, draws));
-			draw_records(t, v, cmd, fill, dp, mode | MODE_CLIPPED_LIST, 1, split + 8);
+			draw_list(t, v, cmd, p.cull_open, p.cull, dp, mode, LIST_SHOWN, draws, sealed + 12);
+			draw_list(t, v, cmd, p.fill_open, p.fill, dp, mode | MODE_CLIPPED_LIST, LIST_CLIPPED, split + 8,
+			          sealed + 8);
 		} else
-			draw_records(t, v, cmd, fill, dp, mode, 0, offsetof(struct counters, draws));
+			draw_list(t, v, cmd, p.fill_open, p.fill, dp, mode, LIST_SHOWN, draws, sealed + 12);
 		if (v->stats_pool && pass == 0)
 			vkCmdEndQuery(cmd, v->stats_pool, 0);
 	}
@@ -337,10 +351,11 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	const bool gpu_cull = v->gpu_cull;
 	const struct counters *c = v->read_counters.map;
 	struct relief_terrain_stats s = {
-		.patches = c->drawn, .draws = c->draws, .requests = c->wants,
+		.patches = c->drawn, .draws = c->draws + c->draw_sealed[3], .requests = c->wants,
 		.face_culled = c->draw_culled != 0, /* the decision the draws used */
 		.cull_height = gpu_cull && c->found ? c->near_high : NAN,
 		.clipped_quads = c->draw_split[3],
+		.sealed_quads = c->sealed_quads,
 	};
 	if (relief_patch_cache_state(t->cache, 0) != RELIEF_PATCH_RESIDENT)
 		s.requests++; /* the root itself is still missing */

@@ -85,9 +85,11 @@ struct counters {
 	uint32_t face_culled, found;
 	float near_high;
 	uint32_t draw_culled; /* the decision the frame draws with: the GPU's, or cpu_cull without a split */
-	/* draw records of the shown list for the culling pipeline, for the other, of the
-	 * clipped list, and the quads in that list (all lod_commands.comp) */
-	uint32_t draw_split[4];
+	/* draws: the shown list's draw records of quads without seals. Those records for the
+	 * culling pipeline, for the other, the clipped list's, and the quads in the clipped
+	 * list; draw_sealed the same for the quads with seals, but its last word the shown
+	 * list's records of them; the quads with seals (all lod_commands.comp) */
+	uint32_t draw_split[4], draw_sealed[4], sealed_quads;
 };
 /* The words shaders/terrain_draw.glsl reads as texels: drawn, curtains, draw_culled. */
 _Static_assert(offsetof(struct counters, drawn) == 0 && offsetof(struct counters, curtains) == 3 * 4 &&
@@ -180,8 +182,14 @@ struct lod_pipelines {
  * the surface; wire: the wireframe pass, where the device has fill_mode_non_solid; the
  * mesh capture's twins of fill and cull (terrain_mesh.c). wire and the twins are made when
  * a frame first asks for them. */
+/* The parts of a view's quad lists, in the order of their draw records (lod_commands.comp). */
+enum list_part { LIST_SHOWN, LIST_SHOWN_SEALED, LIST_CLIPPED, LIST_CLIPPED_SEALED, LIST_PARTS };
+
+/* fill, cull: solid, with back faces kept or culled; *_open: their twins without the seal
+ * code (SEAL_CODE, terrain_draw.glsl) for the quads without seals; wire: the wireframe;
+ * mesh_*: the mesh capture's (with the seal code, for every quad). */
 struct draw_pipelines {
-	VkPipeline fill, cull, wire, mesh_fill, mesh_cull;
+	VkPipeline fill, cull, fill_open, cull_open, wire, mesh_fill, mesh_cull;
 };
 
 /* The layouts and compute pipelines of the terrain's LOD passes: the same for every
@@ -222,7 +230,8 @@ struct relief_terrain {
 
 struct relief_terrain_view {
 	struct relief_terrain *t;
-	/* cmds: max_draws records of the shown list, then max_draws of the clipped list; lists:
+	/* cmds: max_draws records for each part of the lists (the shown list's quads without
+	 * seals, with seals, the clipped list's likewise: enum list_part); lists:
 	 * both lists, max_quads entries (binding 19) */
 	struct relief_vk_buffer split[2], instances, cmds, counters, wants, drawn, factors, seals, borders, curtains,
 		lists, frontier, passes;
@@ -287,8 +296,9 @@ int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wir
 int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod fine, bool morph,
                                  const struct lod_pipelines **out);
 /* terrain_mesh.c: the pipelines a frame draws with (the capture's for a frame drawn with
- * relief_draw_options.mesh), and such a frame's part before and after its draws. */
-void mesh_pipelines(const struct draw_pipelines *d, bool mesh, VkPipeline *fill, VkPipeline *cull);
+ * relief_draw_options.mesh, for the quads with and without seals alike), and such a
+ * frame's part before and after its draws. */
+struct draw_pipelines mesh_pipelines(const struct draw_pipelines *d, bool mesh);
 void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o);
 void mesh_frame_end(VkCommandBuffer cmd);
 

@@ -56,10 +56,14 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
 	return 0;
 }
 
-void mesh_pipelines(const struct draw_pipelines *d, bool mesh, VkPipeline *fill, VkPipeline *cull)
+struct draw_pipelines mesh_pipelines(const struct draw_pipelines *d, bool mesh)
 {
-	*fill = mesh ? d->mesh_fill : d->fill;
-	*cull = mesh ? d->mesh_cull : d->cull;
+	struct draw_pipelines p = *d;
+	if (mesh) {
+		p.fill = p.fill_open = d->mesh_fill;
+		p.cull = p.cull_open = d->mesh_cull;
+	}
+	return p;
 }
 
 void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o)

@@ -24,7 +24,7 @@ int relief_terrain_view_create(struct relief_terrain *t, struct relief_terrain_v
 		{ &v->split[0], 4 * t->count, storage },
 		{ &v->split[1], 4 * t->count, storage },
 		{ &v->instances, sizeof(struct instance) * t->max_patches, storage | read | texels },
-		{ &v->cmds, 2 * 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
+		{ &v->cmds, LIST_PARTS * 16 * (VkDeviceSize)(t->max_draws ? t->max_draws : 1), indirect },
 		{ &v->counters, sizeof(struct counters), indirect | read | texels },
 		{ &v->wants, sizeof(struct want) * WANT_CAP, storage | read },
 		{ &v->drawn, 4 * t->count, storage | texels },
