@@ -22,10 +22,10 @@ struct relief_terrain;
 struct relief_terrain_view;
 
 /* The passes of a frame's LOD compute, in order (docs/lod-performance.md, "Where the LOD
- * compute's time goes"): the buffers cleared and the camera uploaded; the coarse selection (forced splits,
- * one pass for the top levels, then one per level); the patch borders' factors and seals,
- * and the back-face decision;
- * every quad's factors; the lists of quads that draw something with their draw records. */
+ * compute's time goes"): the buffers cleared and the camera uploaded; the coarse selection
+ * (forced splits, one pass for the top levels, then one per level); the patch borders'
+ * factors and seals, and the back-face decision; every quad's factors; the lists of quads
+ * that draw something with their draw records. */
 enum relief_lod_pass {
 	RELIEF_LOD_PASS_SETUP,
 	RELIEF_LOD_PASS_SELECT,

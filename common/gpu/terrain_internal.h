@@ -178,16 +178,15 @@ struct lod_pipelines {
 	VkPipeline borders, factors;
 };
 
-/* One kind of view's draw pipelines. cull: fill with back faces culled, for cameras above
- * the surface; wire: the wireframe pass, where the device has fill_mode_non_solid; the
- * mesh capture's twins of fill and cull (terrain_mesh.c). wire and the twins are made when
- * a frame first asks for them. */
 /* The parts of a view's quad lists, in the order of their draw records (lod_commands.comp). */
 enum list_part { LIST_SHOWN, LIST_SHOWN_SEALED, LIST_CLIPPED, LIST_CLIPPED_SEALED, LIST_PARTS };
 
-/* fill, cull: solid, with back faces kept or culled; *_open: their twins without the seal
- * code (SEAL_CODE, terrain_draw.glsl) for the quads without seals; wire: the wireframe;
- * mesh_*: the mesh capture's (with the seal code, for every quad). */
+/* One kind of view's draw pipelines. cull: fill with back faces culled, for cameras above
+ * the surface; fill_open, cull_open: their twins without the seal code (SEAL_CODE,
+ * terrain_draw.glsl), for the quads without seals; wire: the wireframe pass, where the
+ * device has fill_mode_non_solid; the mesh capture's twins of fill and cull (with the seal
+ * code, for every quad; terrain_mesh.c). wire and the capture's are made when a frame
+ * first asks for them. */
 struct draw_pipelines {
 	VkPipeline fill, cull, fill_open, cull_open, wire, mesh_fill, mesh_cull;
 };
