@@ -194,9 +194,9 @@ void visit(uint l, uint id, uint px, uint py, uint e, bool marked, float parent_
 // tree, with the same arithmetic that visits them, so it takes the same decisions as
 // level-by-level frontiers would. At most 85 invocations, each re-deriving at most 3
 // ancestors, so the cost is bounded whatever the tree; a 4-level tree takes one dispatch
-// instead of four, 0.04-0.10 ms less per frame on lavapipe (docs/lod.md, "The top levels
-// in one dispatch"). Deeper levels go level by level over their frontiers (pc.level >=
-// TOP_LEVELS).
+// instead of four, 0.04-0.10 ms less per frame on lavapipe (docs/lod-performance.md, "The
+// top levels in one dispatch"). Deeper levels go level by level over their frontiers
+// (pc.level >= TOP_LEVELS).
 void main()
 {
 	uint l = pc.level;

@@ -12,6 +12,10 @@
 
 #define EXIT_USAGE 2
 
+/* What snap and fly print for the triangle count on a device without pipeline statistics
+ * (GPU-assisted validation turns them off), not 0; test_cli looks for it. */
+#define CLI_TRIANGLES_UNCOUNTED "triangles not counted (no pipeline statistics)"
+
 struct relief_command {
 	const char *name;
 	const char *summary;

@@ -335,7 +335,7 @@ int cmd_fly(int argc, char **argv)
 	double busy_med = bench_median(s.busy_ms, frames);
 	double tri_med = bench_median(s.triangles, frames);
 	/* A device without pipeline statistics counts no triangles: said so, not printed as 0. */
-	char tri_json[32] = "null", tri_text[64] = "triangles not counted (no pipeline statistics)";
+	char tri_json[32] = "null", tri_text[64] = CLI_TRIANGLES_UNCOUNTED;
 	if (g.vk->has.pipeline_statistics) {
 		snprintf(tri_json, sizeof(tri_json), "%.0f", tri_med);
 		snprintf(tri_text, sizeof(tri_text), "triangles median %.0f", tri_med);

@@ -292,7 +292,7 @@ int cmd_snap(int argc, char **argv)
 	if (g.vk->has.pipeline_statistics)
 		snprintf(tri, sizeof(tri), "%llu triangles", (unsigned long long)st.triangles);
 	else
-		snprintf(tri, sizeof(tri), "triangles not counted (no pipeline statistics)");
+		snprintf(tri, sizeof(tri), CLI_TRIANGLES_UNCOUNTED);
 	if (g.vk->timestamp_valid_bits)
 		snprintf(gpu, sizeof(gpu), "GPU %.2f ms (LOD compute %.2f ms, of which selection %.2f ms)", st.gpu_ns / 1e6,
 		         st.lod_ns / 1e6, st.select_ns / 1e6);
