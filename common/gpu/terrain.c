@@ -262,7 +262,8 @@ int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wir
 	const VkSpecializationInfo spec = kind_spec_info(&kind), open_spec = kind_spec_info(&open);
 	struct relief_vk_tess_pipeline_desc d = draw_pipeline_desc(t);
 	/* Each slot with what it draws: solid, solid culled, both without the seal code,
-	 * wireframe; the capture's two. */
+	 * wireframe; the capture's four, the same kinds as the solid ones (so that a mesh check
+	 * sees the quads drawn without the seal code as drawn). */
 	struct {
 		VkPipeline *pipe;
 		bool want, cull_back, wireframe, capture, open;
@@ -274,6 +275,8 @@ int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wir
 		{ &p->wire, wire && t->vk->has.fill_mode_non_solid, false, true, false, false },
 		{ &p->mesh_fill, mesh, false, false, true, false },
 		{ &p->mesh_cull, mesh, true, false, true, false },
+		{ &p->mesh_fill_open, mesh, false, false, true, true },
+		{ &p->mesh_cull_open, mesh, true, false, true, true },
 	};
 	for (size_t i = 0; i < sizeof(slots) / sizeof(slots[0]); i++) {
 		if (!slots[i].want || *slots[i].pipe)
@@ -325,7 +328,8 @@ void relief_terrain_destroy(struct relief_terrain *t)
 	VkDevice dev = t->vk->device;
 	for (int m = 0; m < 2; m++) {
 		const struct draw_pipelines *p = &t->draw[m];
-		VkPipeline draw[7] = { p->fill, p->cull, p->fill_open, p->cull_open, p->wire, p->mesh_fill, p->mesh_cull };
+		VkPipeline draw[] = { p->fill,  p->cull,      p->fill_open,      p->cull_open,     p->wire,
+			              p->mesh_fill, p->mesh_cull, p->mesh_fill_open, p->mesh_cull_open };
 		for (size_t i = 0; i < sizeof(draw) / sizeof(draw[0]); i++)
 			if (draw[i])
 				vkDestroyPipeline(dev, draw[i], NULL);

@@ -188,7 +188,7 @@ enum list_part { LIST_SHOWN, LIST_SHOWN_SEALED, LIST_CLIPPED, LIST_CLIPPED_SEALE
  * code, for every quad; terrain_mesh.c). wire and the capture's are made when a frame
  * first asks for them. */
 struct draw_pipelines {
-	VkPipeline fill, cull, fill_open, cull_open, wire, mesh_fill, mesh_cull;
+	VkPipeline fill, cull, fill_open, cull_open, wire, mesh_fill, mesh_cull, mesh_fill_open, mesh_cull_open;
 };
 
 /* The layouts and compute pipelines of the terrain's LOD passes: the same for every
@@ -295,7 +295,7 @@ int terrain_draw_pipelines_create(struct relief_terrain *t, bool morph, bool wir
 int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod fine, bool morph,
                                  const struct lod_pipelines **out);
 /* terrain_mesh.c: the pipelines a frame draws with (the capture's for a frame drawn with
- * relief_draw_options.mesh, for the quads with and without seals alike), and such a
+ * relief_draw_options.mesh, each kind's twin: with and without the seal code), and such a
  * frame's part before and after its draws. */
 struct draw_pipelines mesh_pipelines(const struct draw_pipelines *d, bool mesh);
 void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o);

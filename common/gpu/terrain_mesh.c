@@ -60,8 +60,10 @@ struct draw_pipelines mesh_pipelines(const struct draw_pipelines *d, bool mesh)
 {
 	struct draw_pipelines p = *d;
 	if (mesh) {
-		p.fill = p.fill_open = d->mesh_fill;
-		p.cull = p.cull_open = d->mesh_cull;
+		p.fill = d->mesh_fill;
+		p.cull = d->mesh_cull;
+		p.fill_open = d->mesh_fill_open;
+		p.cull_open = d->mesh_cull_open;
 	}
 	return p;
 }

@@ -109,7 +109,9 @@ static void test_banked_and_nadir_views(void **state)
  * Mont Blanc poses 0-2 showed 18, 2, 3 and 11 holes at tau = 1; without the cross-level part
  * (coarser_edge(), sealed_height()), Puget poses 0-2 showed 10, 1 and 67 holes at tau = 6.
  * Rerun in the thirty-eighth December 2026 session: with only the evaluation shader's side
- * seal records ignored these poses show no hole; test_sealed_corners does (2 holes). */
+ * seal records ignored these poses show no hole (pixels see a crack only where background
+ * lies behind it); test_sealed_corners does (2 holes), and so does test_lod_mesh's check of
+ * every captured mesh for seams, which needs no background (split corners). */
 static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n_poses, uint32_t *level_kinds)
 {
 	struct bound_scene b;
