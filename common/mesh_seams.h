@@ -24,12 +24,17 @@ struct relief_mesh_seams {
 	struct relief_mesh_vertex split_at;      /* the first split position found, one of its heights */
 };
 
+/* A tolerance for corners the shaders put on an edge's line with float arithmetic: far
+ * below a pixel from any camera the tests and benchmarks use, above the float rounding of
+ * terrain heights (at most 1e-3 m below 16,384 m). */
+#define RELIEF_MESH_SEAM_TOL_M 1e-3
+
 /* Checks n triangles (3 n vertices, as captured). Vertical triangles (the terrain edge's
  * curtain, which hangs below its top corners) are left out. Only edges along a grid row or
  * column are searched for corners inside them: the tessellator makes each quad's
  * triangulation conforming inside it, and quads meet only along their borders, which run
  * along rows and columns. A junction's gap is |h - h_edge|, h_edge the edge's linear height
  * at the corner, computed in double; a corner counts once for each edge drawn through it.
- * tol_m absorbs the float rounding of a corner that the shaders put on the edge (see
- * tests/gpu/test_lod_mesh.c). 0 or -ENOMEM. */
+ * tol_m absorbs the float rounding of a corner that the shaders put on the edge
+ * (RELIEF_MESH_SEAM_TOL_M). 0 or -ENOMEM. */
 int relief_mesh_seams(const struct relief_mesh_vertex *tri, uint64_t n, double tol_m, struct relief_mesh_seams *out);

@@ -49,7 +49,9 @@
  * interior that is its centre alone), and other_triangles, those of no kind over all
  * frames (0 for relief and chunked LOD wherever the tessellator builds its transition
  * strips as docs/lod.md describes; the distance baseline's factors are not powers of two,
- * and its transitions are of no kind). Absent where not measured.
+ * and its transitions are of no kind); mesh_seams, the positions drawn at two heights and
+ * the T-junctions over all frames (relief_mesh_seams(): 0 for a watertight mesh, every
+ * method's). Absent where not measured.
  * Popping: what the change of level of detail alone does between consecutive frames (each
  * key pose and the frame after it, 1/60 s later at 250 m/s): the second frame's camera
  * draws once with its own LOD and once with the first frame's LOD (frozen, see
@@ -398,9 +400,9 @@ static void result_print_json(const struct run *r, const struct config *cfg, con
 		printf(",\"max_err_mesh_px\":%.4f,\"max_err_mesh_transition_px\":%.4f,"
 		       "\"max_err_mesh_regular_worse_px\":%.4f,\"transition_triangles\":%.1f,"
 		       "\"max_err_mesh_coarse_edge_px\":%.4f,\"max_err_mesh_fine_edge_px\":%.4f,"
-		       "\"max_err_mesh_fan_px\":%.4f,\"other_triangles\":%.0f",
+		       "\"max_err_mesh_fan_px\":%.4f,\"other_triangles\":%.0f,\"mesh_seams\":%.0f",
 		       res->mesh_max, res->mesh_transition, res->mesh_regular_worse, res->transitions,
-		       res->mesh_kind[0], res->mesh_kind[1], res->mesh_kind[2], res->mesh_other);
+		       res->mesh_kind[0], res->mesh_kind[1], res->mesh_kind[2], res->mesh_other, res->mesh_seams);
 	if (res->mesh_max >= 0) {
 		/* per analysed frame, as transition_triangles */
 		const struct mesh_cover *m = &res->cover;

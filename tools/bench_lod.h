@@ -60,6 +60,7 @@ struct result {
 	 * kind OTHER or UNKNOWN over all frames */
 	double mesh_max, mesh_transition, mesh_regular_worse, transitions;
 	double mesh_kind[3], mesh_other;
+	double mesh_seams; /* split positions and T-junctions over the frames (relief_mesh_seams()) */
 	/* Where the captured triangles fall (mesh_cover.h), summed over the analysed frames
 	 * (valid where mesh_max >= 0) */
 	struct mesh_cover cover;

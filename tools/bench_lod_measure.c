@@ -12,6 +12,7 @@
 #include "bench_lod.h"
 #include "bench_util.h"
 #include "mesh_diff.h"
+#include "mesh_seams.h"
 #include "terrain.h"
 
 /* Errors of one rendered frame (depth in the target) against the finest surface: signed
@@ -122,7 +123,7 @@ static int recheck(struct run *r, const struct config *c, struct relief_terrain_
 static void mesh_unmeasured(struct result *res)
 {
 	res->mesh_max = res->mesh_transition = res->mesh_regular_worse = res->transitions = -1;
-	res->mesh_kind[0] = res->mesh_kind[1] = res->mesh_kind[2] = res->mesh_other = -1;
+	res->mesh_kind[0] = res->mesh_kind[1] = res->mesh_kind[2] = res->mesh_other = res->mesh_seams = -1;
 }
 
 /* Frame i of the analysed run drawn again (untimed; selecting again for the same camera
@@ -156,6 +157,11 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 		res->mesh_kind[k] = fmax(res->mesh_kind[k], e.kind_max_px[RELIEF_MESH_COARSE_EDGE + k]);
 	res->mesh_other += (double)(e.kind_triangles[RELIEF_MESH_OTHER] + e.kind_triangles[RELIEF_MESH_UNKNOWN]);
 	mesh_cover_add(r->f, v, r->mesh, (uint64_t)n, &res->cover);
+	struct relief_mesh_seams seams;
+	ret = relief_mesh_seams(r->mesh, (uint64_t)n, RELIEF_MESH_SEAM_TOL_M, &seams);
+	if (ret < 0)
+		return ret;
+	res->mesh_seams += (double)(seams.split + seams.junctions);
 	return 0;
 }
 

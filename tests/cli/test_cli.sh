@@ -424,6 +424,12 @@ expect_text bench-lod-mesh-full-grid '"max_err_mesh_px":0.0000,'
 expect_text bench-lod-mesh-kinds '"max_err_mesh_coarse_edge_px":'
 m=$(grep -E '"method":"(relief|chunked)"' <<<"$LAST_OUT" | grep -c '"other_triangles":0,')
 [ "$m" -eq 2 ] || { echo "FAIL bench lod other triangles: $m of relief and chunked have none"; fails=$((fails + 1)); }
+# Every method's meshes are watertight over the flight (relief_mesh_seams()).
+m=$(grep -c '"max_err_mesh_px":' <<<"$LAST_OUT")
+s=$(grep -c '"mesh_seams":0[,}]' <<<"$LAST_OUT")
+if [ "$m" -ge 4 ] && [ "$s" -eq "$m" ]; then passes=$((passes + 1)); else
+	echo "FAIL bench lod mesh seams: $s of $m measured methods watertight"; fails=$((fails + 1))
+fi
 # Where the captured triangles fall (tools/mesh_cover.h): the five kinds add up to the
 # triangles the device counted (pipeline statistics) in the same frames.
 m=$(awk "$awk_num"'

@@ -27,19 +27,19 @@ enum { MESH_CAP = 1u << 20 };
  * a border edge has a vertex at every corner of the finer blocks across it (docs/lod.md,
  * "Between patches"). Checked on every frame this file captures: the seals tested from any
  * camera that draws them, not only where a crack happens to have background behind it.
- * Negative controls, run when this check was written (thirty-ninth December 2026 session),
- * the first three failing 6-7 of this file's 11 tests: the evaluation shader ignoring the side seal
- * records (Puget Sound pose 0 at tau 4: 6 positions split), ignoring the corner records
- * (1 split), the factor pass marking no quad as sealed, so that every quad is drawn without
- * the seal code (6 split; the capture draws with the same twin pipelines as a frame), and a
- * border edge not raised for a finer patch across it (drawn_border_factor() without its
- * rule: 12 T-junctions in that frame, 1-49 in each of 35 frames of 5 tests, every one on
- * its edge's line, 0 m off: only counting the junctions catches it). */
-#define SEAM_TOL_M 1e-3
+ * Negative controls, run when this check was written (thirty-ninth December 2026
+ * session), the first three failing 6-7 of this file's 11 tests: the evaluation shader
+ * ignoring the side seal records (Puget Sound pose 0 at tau 4: 6 positions split),
+ * ignoring the corner records (1 split), the factor pass marking no quad as sealed, so
+ * that every quad is drawn without the seal code (6 split; the capture draws with the same
+ * twin pipelines as a frame); and a border edge not raised for a finer patch across it
+ * (drawn_border_factor() without its rule: 12 T-junctions in that frame, 1-49 in each of
+ * 35 frames of 5 tests, every one on its edge's line, 0 m off: only counting the
+ * junctions catches it). */
 static void mesh_watertight(const struct relief_mesh_vertex *tri, uint64_t n)
 {
 	struct relief_mesh_seams s;
-	assert_int_equal(relief_mesh_seams(tri, n, SEAM_TOL_M, &s), 0);
+	assert_int_equal(relief_mesh_seams(tri, n, RELIEF_MESH_SEAM_TOL_M, &s), 0);
 	print_message("  seams: %llu corners, %llu split, %llu T-junctions (%llu open), largest gap %.3g m at (%lld, %lld)\n",
 	              (unsigned long long)s.positions, (unsigned long long)s.split, (unsigned long long)s.junctions,
 	              (unsigned long long)s.open, s.max_gap_m, (long long)s.worst.col, (long long)s.worst.row);
