@@ -15,6 +15,8 @@
 /* What snap and fly print for the triangle count on a device without pipeline statistics
  * (GPU-assisted validation turns them off), not 0; test_cli looks for it. */
 #define CLI_TRIANGLES_UNCOUNTED "triangles not counted (no pipeline statistics)"
+/* And for GPU times on a queue without timestamps (timestampValidBits 0). */
+#define CLI_GPU_UNTIMED "GPU time not measured (no timestamps on this queue)"
 
 struct relief_command {
 	const char *name;

@@ -305,7 +305,8 @@ int cmd_fly(int argc, char **argv)
 		s.wall_ms[i] = (bench_now() - w0 - png_s) * 1e3;
 		s.update_ms[i] = (w1 - w0) * 1e3;
 		/* The round's span on the device (the channels' sum counts overlapping work twice on
-		 * a GPU); no timestamps on this queue: 0, as the channels' own times. */
+		 * a GPU); no timestamps on this queue: 0, as the channels' own times, and the
+		 * summary says the times are missing. */
 		uint64_t span_ns = 0;
 		if ((ret = relief_terrain_views_span_ns(g.terrain, tv, channels, &span_ns)) < 0 && ret != -ENODATA) {
 			fprintf(stderr, "relief fly: frame %u: %s\n", i, strerror(-ret));
@@ -340,6 +341,18 @@ int cmd_fly(int argc, char **argv)
 		snprintf(tri_json, sizeof(tri_json), "%.0f", tri_med);
 		snprintf(tri_text, sizeof(tri_text), "triangles median %.0f", tri_med);
 	}
+	/* Likewise GPU times on a queue without timestamps. */
+	char gpu_json[96] = "\"gpu_ms_median\":null,\"gpu_ms_p95\":null,\"gpu_busy_ms_median\":null";
+	char gpu_text[160] = CLI_GPU_UNTIMED;
+	if (g.vk->timestamp_valid_bits) {
+		snprintf(gpu_json, sizeof(gpu_json), "\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,\"gpu_busy_ms_median\":%.3f",
+		         gpu_med, gpu_p95, busy_med);
+		int len = snprintf(gpu_text, sizeof(gpu_text), "GPU ms per frame   median %.2f  p95 %.2f", gpu_med, gpu_p95);
+		if (channels > 1)
+			snprintf(gpu_text + len, sizeof(gpu_text) - (size_t)len,
+			         " (first channel's start to last one's end; the channels' own times add up to %.2f)",
+			         busy_med);
+	}
 	long first = s.first_complete == UINT32_MAX ? -1 : (long)s.first_complete;
 	long last = s.last_incomplete == UINT32_MAX ? -1 : (long)s.last_incomplete;
 	if (json) {
@@ -347,7 +360,7 @@ int cmd_fly(int argc, char **argv)
 		cli_json_string(stdout, path);
 		printf(",\"frames\":%u,\"channels\":%u,\"width\":%u,\"height\":%u,\"tau_px\":%g,\"fps\":%g,\"seconds\":%g,"
 		       "\"wall_ms_median\":%.3f,\"wall_ms_p95\":%.3f,\"wall_ms_max\":%.3f,\"update_ms_median\":%.4f,"
-		       "\"update_ms_max\":%.4f,\"gpu_ms_median\":%.3f,\"gpu_ms_p95\":%.3f,\"gpu_busy_ms_median\":%.3f,"
+		       "\"update_ms_max\":%.4f,%s,"
 		       "\"triangles_median\":%s,"
 		       "\"frames_incomplete\":%u,\"first_complete_frame\":%ld,\"first_complete_ms\":%.1f,"
 		       "\"last_incomplete_frame\":%ld,"
@@ -355,7 +368,7 @@ int cmd_fly(int argc, char **argv)
 		       "\"workers\":%u,\"morph\":%s,\"face_culled_draws\":%u,\"pool_bytes\":%llu,\"table_bytes\":%llu,"
 		       "\"terrain_bytes\":%llu,\"view_bytes\":%llu",
 		       frames, channels, width, height, tau, fps, seconds, wall_med, wall_p95, wall_max, upd_med, upd_max,
-		       gpu_med, gpu_p95, busy_med, tri_json, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
+		       gpu_json, tri_json, s.incomplete, first, s.first_complete_ms, last, (unsigned long long)cs.decoded,
 		       (unsigned long long)cs.evicted, (unsigned long long)cs.bad, cs.used, cs.layers, budget, workers,
 		       morph ? "true" : "false", culled_draws, (unsigned long long)cs.bytes, (unsigned long long)cs.table_bytes,
 		       (unsigned long long)relief_terrain_bytes(g.terrain), (unsigned long long)view_bytes);
@@ -371,11 +384,8 @@ int cmd_fly(int argc, char **argv)
 		printf("  frame wall ms      median %.2f  p95 %.2f  max %.2f (drawing %u channel(s) and waiting for them)\n",
 		       wall_med, wall_p95, wall_max, channels);
 		printf("  cache update ms    median %.3f  max %.3f (never waits for a decode)\n", upd_med, upd_max);
-		printf("  GPU ms per frame   median %.2f  p95 %.2f", gpu_med, gpu_p95);
-		if (channels > 1)
-			printf(" (first channel's start to last one's end; the channels' own times add up to %.2f)", busy_med);
-		printf("; %s; back faces culled in %u of %u draws (camera above the surface)\n", tri_text, culled_draws,
-		       frames * channels);
+		printf("  %s; %s; back faces culled in %u of %u draws (camera above the surface)\n", gpu_text, tri_text,
+		       culled_draws, frames * channels);
 		printf("  detail             %u of %u frames drew a parent for a missing patch; ", s.incomplete, frames);
 		if (first < 0)
 			printf("no frame complete (the budget or the track's length), ");

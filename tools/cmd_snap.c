@@ -297,7 +297,7 @@ int cmd_snap(int argc, char **argv)
 		snprintf(gpu, sizeof(gpu), "GPU %.2f ms (LOD compute %.2f ms, of which selection %.2f ms)", st.gpu_ns / 1e6,
 		         st.lod_ns / 1e6, st.select_ns / 1e6);
 	else
-		snprintf(gpu, sizeof(gpu), "GPU time not measured (no timestamps on this queue)");
+		snprintf(gpu, sizeof(gpu), CLI_GPU_UNTIMED);
 	printf("relief snap: wrote %s (%ux%u), tau %g px: %u patches in %u draws, %s, %s, back faces %s (%u quads the "
 	       "rasteriser may clip kept them), %u frames to converge, %llu patches decoded, %u requests left\n",
 	       output, width, height, tau, st.patches, st.draws, tri, gpu,
