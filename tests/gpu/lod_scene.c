@@ -1,6 +1,7 @@
 /* The LOD tests' scenes (lod_scene.h). */
 #include <math.h>
 #include <stdatomic.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "decode.h"
@@ -31,7 +32,7 @@ void scene_open_dem(struct scene *s, struct relief_vk *vk, const struct relief_d
 void scene_open_dem_patch(struct scene *s, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch,
                           double tol, uint32_t w, uint32_t h, uint32_t max_layers)
 {
-	s->ctx = vk;
+	*s = (struct scene){ .ctx = vk };
 	struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = tol };
 	assert_int_equal(relief_pack_memory(dem, &o, &s->img, &s->size, NULL), 0);
 	char err[256];
@@ -89,6 +90,41 @@ void render_with(struct scene *s, struct relief_view *v, const struct relief_dra
 void render(struct scene *s, struct relief_view *v, float *depth, struct relief_terrain_stats *st)
 {
 	render_with(s, v, NULL, depth, st);
+}
+
+void assert_seamless(const struct relief_mesh_vertex *tri, uint64_t n)
+{
+	struct relief_mesh_seams m;
+	assert_int_equal(relief_mesh_seams(tri, n, RELIEF_MESH_SEAM_TOL_M, &m), 0);
+	print_message("  seams: %llu corners, %llu split, %llu T-junctions (%llu open), largest gap %.3g m at (%lld, %lld)\n",
+	              (unsigned long long)m.positions, (unsigned long long)m.split, (unsigned long long)m.junctions,
+	              (unsigned long long)m.open, m.max_gap_m, (long long)m.worst.col, (long long)m.worst.row);
+	assert_int_equal(m.split, 0);
+	assert_int_equal(m.junctions, 0);
+	assert_int_equal(m.open, 0);
+}
+
+enum { SEAMLESS_ROOM = 1u << 19 };
+
+uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts)
+{
+	if (!s->mesh_room) {
+		assert_int_equal(relief_terrain_view_mesh_enable(s->view, SEAMLESS_ROOM), 0);
+		s->mesh_room = SEAMLESS_ROOM;
+	}
+	struct relief_draw_options o = opts ? *opts : (struct relief_draw_options){ .fine = RELIEF_FINE_ERRORS };
+	o.mesh = true;
+	struct relief_terrain_stats st;
+	float *depth = malloc(sizeof(float) * v->width * v->height);
+	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)s->mesh_room);
+	assert_true(depth && tri);
+	render_with(s, v, &o, depth, &st);
+	int64_t n = relief_terrain_view_mesh(s->view, tri, NULL, s->mesh_room);
+	assert_true(n > 0 && n <= (int64_t)s->mesh_room);
+	assert_seamless(tri, (uint64_t)n);
+	free(tri);
+	free(depth);
+	return (uint64_t)n;
 }
 
 /* Pixel (x, y) of a LOD render over tau, farther than the reference: whether it also shows
@@ -204,6 +240,7 @@ uint32_t fresh_view_matches_cpu(struct scene *s, const struct relief_view *v, ui
 {
 	relief_terrain_view_destroy(s->view);
 	assert_int_equal(relief_terrain_view_create(s->terrain, &s->view), 0);
+	s->mesh_room = 0; /* the new view has no capture */
 	struct relief_terrain_stats st;
 	assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame, opts, &st), 0);
 	return gpu_matches_cpu(s, v, &st);

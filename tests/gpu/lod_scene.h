@@ -11,6 +11,7 @@
 #include "../data_load.h"
 #include "format.h"
 #include "lod.h"
+#include "mesh_seams.h"
 #include "patch_cache.h"
 #include "terrain.h"
 
@@ -23,6 +24,7 @@ struct scene {
 	struct relief_vk_target target;
 	struct relief_terrain *terrain;
 	struct relief_terrain_view *view;
+	uint32_t mesh_room; /* triangles the view's mesh capture holds (0: not enabled) */
 };
 
 /* A DEM packed at tolerance tol and moved by (dx, dy), in a 64 MiB cache of at most
@@ -48,6 +50,31 @@ int cmp_u32(const void *a, const void *b);
 void render_with(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts, float *depth,
                  struct relief_terrain_stats *st);
 void render(struct scene *s, struct relief_view *v, float *depth, struct relief_terrain_stats *st);
+
+/* A captured mesh is watertight (relief_mesh_seams()): no position drawn at two heights (a
+ * crack at a shared corner) and no T-junction at all (a corner inside another triangle's
+ * edge, which a rasteriser does not close even when the corner is on the edge's line),
+ * since the seals draw a finer patch's border with the coarser patch's vertices and a
+ * border edge has a vertex at every corner of the finer blocks across it (docs/lod.md,
+ * "Between patches"). Unlike a background pixel, this finds a crack from any camera that
+ * draws the border, whatever lies behind it. Prints the counts.
+ * Negative controls, run when this check was written (thirty-ninth December 2026
+ * session): the evaluation shader ignoring the side seal records fails 7 of
+ * test_lod_mesh's 11 tests (Puget Sound pose 0 at tau 4: 6 positions split) and
+ * test_lod_bound's sealed-border, sealed-corner and deep-jump tests by split positions
+ * (10 in test_sealed_borders' first frame, which its pixels alone no longer catch);
+ * ignoring the corner records 6 and the same 3 (1-2 split); the factor pass marking no
+ * quad as sealed, so that every quad is drawn without the seal code (the capture draws
+ * with the same twin pipelines as a frame), 7 and the same 3 (6-12 split); a border edge
+ * not raised for a finer patch across it (drawn_border_factor() without its rule), 8 and
+ * the same 3 by T-junctions (10-27 in the first failing frame of each, every one exactly
+ * on its edge's line: only counting the junctions catches it); no forced splits
+ * (lod_force.comp) in test_level_jumps_of_five, 4 T-junctions in its first view. */
+void assert_seamless(const struct relief_mesh_vertex *tri, uint64_t n);
+/* Draws v (converged) with opts and the view's mesh capture on (enabled at first use) and
+ * asserts the frame's mesh seamless; returns its triangle count. The test group's context
+ * must have the capture (gpu_test_mesh_capture). */
+uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts);
 
 struct comparison {
 	uint32_t holes, both; /* background inside the reference's silhouette; terrain in both */

@@ -110,8 +110,9 @@ static void test_banked_and_nadir_views(void **state)
  * (coarser_edge(), sealed_height()), Puget poses 0-2 showed 10, 1 and 67 holes at tau = 6.
  * Rerun in the thirty-eighth December 2026 session: with only the evaluation shader's side
  * seal records ignored these poses show no hole (pixels see a crack only where background
- * lies behind it); test_sealed_corners does (2 holes), and so does test_lod_mesh's check of
- * every captured mesh for seams, which needs no background (split corners). */
+ * lies behind it); test_sealed_corners does (2 holes). So since the thirty-ninth session
+ * each frame's mesh is also checked for seams (render_seamless(), lod_scene.h), which needs
+ * no background: the same control fails this test there (10 split positions). */
 static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n_poses, uint32_t *level_kinds)
 {
 	struct bound_scene b;
@@ -142,6 +143,7 @@ static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n
 			assert_true(c.both > BW * BH / 8);
 			assert_int_equal(c.holes, 0);
 			assert_true(c.worst_px <= v.tau + 0.05);
+			render_seamless(&s, &v, &bare); /* and the mesh itself: no crack anywhere */
 		}
 	}
 	free(ids);
@@ -243,6 +245,7 @@ static void test_deep_level_jumps(void **state)
 			assert_int_equal(c.holes, 0);
 			assert_true(jump > 2); /* finer than log2(4 blocks) levels across a border */
 			assert_true(c.both > BW * BH / 8);
+			render_seamless(&b.s, &v, &bare);
 		}
 	}
 	free(ids);
@@ -259,7 +262,9 @@ static void test_deep_level_jumps(void **state)
  * than 4 levels apart side by side, and the GPU's selection equals the CPU reference's
  * (relief_lod_select()) on each. Negative control, run when the test was written: without
  * the pre-pass each of the five frames shows one background pixel and draws a jump of 5
- * (15 of the sweep's 300 frames). */
+ * (15 of the sweep's 300 frames). Each frame's mesh is also checked for seams
+ * (render_seamless()): no T-junction (the control, run when that was added: view 9
+ * without the pre-pass, 4). */
 static void test_level_jumps_of_five(void **state)
 {
 	enum { N = 4097 };
@@ -286,6 +291,7 @@ static void test_level_jumps_of_five(void **state)
 		              sweep[i], v.tau, nd, jump, holes);
 		assert_int_equal(holes, 0);
 		assert_true(jump >= 3 && jump <= 4);
+		render_seamless(&s, &v, &bare); /* no T-junction where the pre-pass split */
 		fresh_view_matches_cpu(&s, &v, 200 + i, &bare);
 	}
 	free(ids);
@@ -399,6 +405,7 @@ static void test_sealed_corners(void **state)
 			assert_int_equal(c.holes, 0);
 			assert_true((levels & (levels - 1)) != 0); /* several levels meet in the frame */
 			assert_true(st.sealed_quads > 0 && st.sealed_quads < quads);
+			render_seamless(&s, &v, &bare);
 		}
 	}
 	free(ids);

@@ -5,7 +5,9 @@
  * the finest surface, which is what the block errors bound, and the tessellator's
  * transition triangles, which the strip bounds computed at decode bound (docs/lod.md,
  * "Transition triangles: what bounds them"). A view with loose_transitions set
- * breaks it (the negative control). Validation layer on, zero messages. */
+ * breaks it (the negative control). Every captured frame's mesh is also checked
+ * watertight (assert_seamless(), lod_scene.c; its negative controls are recorded there).
+ * Validation layer on, zero messages. */
 #include <errno.h>
 #include <math.h>
 #include <stdbool.h>
@@ -14,39 +16,10 @@
 
 #include "gpu_test.h"
 #include "lod_scene.h"
-#include "mesh_seams.h"
 
 #define vk gpu_test_vk
 
 enum { MESH_CAP = 1u << 20 };
-
-/* Every frame's mesh is watertight (relief_mesh_seams()): no position drawn at two heights
- * (a crack at a shared corner) and no T-junction at all (a corner inside another
- * triangle's edge, which a rasteriser does not close even when the corner is on the edge's
- * line), since the seals draw a finer patch's border with the coarser patch's vertices and
- * a border edge has a vertex at every corner of the finer blocks across it (docs/lod.md,
- * "Between patches"). Checked on every frame this file captures: the seals tested from any
- * camera that draws them, not only where a crack happens to have background behind it.
- * Negative controls, run when this check was written (thirty-ninth December 2026
- * session), the first three failing 6-7 of this file's 11 tests: the evaluation shader
- * ignoring the side seal records (Puget Sound pose 0 at tau 4: 6 positions split),
- * ignoring the corner records (1 split), the factor pass marking no quad as sealed, so
- * that every quad is drawn without the seal code (6 split; the capture draws with the same
- * twin pipelines as a frame); and a border edge not raised for a finer patch across it
- * (drawn_border_factor() without its rule: 12 T-junctions in that frame, 1-49 in each of
- * 35 frames of 5 tests, every one on its edge's line, 0 m off: only counting the
- * junctions catches it). */
-static void mesh_watertight(const struct relief_mesh_vertex *tri, uint64_t n)
-{
-	struct relief_mesh_seams s;
-	assert_int_equal(relief_mesh_seams(tri, n, RELIEF_MESH_SEAM_TOL_M, &s), 0);
-	print_message("  seams: %llu corners, %llu split, %llu T-junctions (%llu open), largest gap %.3g m at (%lld, %lld)\n",
-	              (unsigned long long)s.positions, (unsigned long long)s.split, (unsigned long long)s.junctions,
-	              (unsigned long long)s.open, s.max_gap_m, (long long)s.worst.col, (long long)s.worst.row);
-	assert_int_equal(s.split, 0);
-	assert_int_equal(s.junctions, 0);
-	assert_int_equal(s.open, 0);
-}
 
 /* Renders v (converged) with the capture on, checks that every triangle the clipper saw was
  * captured, and measures them with their quads (so by kind). */
@@ -65,7 +38,7 @@ static uint64_t mesh_measure(struct bound_scene *b, struct relief_view *v, const
 		assert_int_equal((uint64_t)n, st.triangles);
 	relief_mesh_error(b->s.f, v, b->finest, b->fw, b->fh, tri, quads, (uint64_t)n, e);
 	free(quads);
-	mesh_watertight(tri, (uint64_t)n);
+	assert_seamless(tri, (uint64_t)n);
 	return (uint64_t)n;
 }
 
@@ -385,7 +358,7 @@ static uint64_t mesh_factors(struct bound_scene *b, struct relief_view *v, enum 
 	render_with(&b->s, v, &o, b->lod, &st);
 	int64_t n = relief_terrain_view_mesh(b->s.view, tri, quads, MESH_CAP);
 	assert_true(n > 0 && n <= MESH_CAP);
-	mesh_watertight(tri, (uint64_t)n); /* the baselines' frames too */
+	assert_seamless(tri, (uint64_t)n); /* the baselines' frames too */
 	*coarse = 0;
 	for (int64_t k = 0; k < n; k++) {
 		const struct relief_mesh_quad *q = &quads[k];
