@@ -99,6 +99,9 @@ void assert_seamless(const struct relief_mesh_vertex *tri, uint64_t n)
 	print_message("  seams: %llu corners, %llu split, %llu T-junctions (%llu open), largest gap %.3g m at (%lld, %lld)\n",
 	              (unsigned long long)m.positions, (unsigned long long)m.split, (unsigned long long)m.junctions,
 	              (unsigned long long)m.open, m.max_gap_m, (long long)m.worst.col, (long long)m.worst.row);
+	if (m.split)
+		print_message("  first split position (%lld, %lld), patch %u draws it at %.4f m\n", (long long)m.split_at.col,
+		              (long long)m.split_at.row, m.split_at.patch, m.split_at.height);
 	assert_int_equal(m.split, 0);
 	assert_int_equal(m.junctions, 0);
 	assert_int_equal(m.open, 0);
