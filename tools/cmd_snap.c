@@ -14,6 +14,7 @@
 #include "le.h"
 #include "lod.h"
 #include "mesh_error.h"
+#include "mesh_seams.h"
 #include "patch_cache.h"
 #include "renderer.h"
 #include "terrain.h"
@@ -40,6 +41,7 @@ static void snap_usage(FILE *f)
 		"                       row-major from the top row, +infinity where no terrain is seen\n"
 		"      --exact          also measure the frame triangle by triangle against the finest\n"
 		"                       decoded surface (decodes the whole finest level; docs/lod.md)\n"
+		"                       and check its mesh for cracks and T-junctions\n"
 		"      --budget MIB     GPU memory for the patch cache (default 256)\n"
 		"      --device DEV     Vulkan device: name substring, deviceUUID or render node\n"
 		"      --validation     enable the Khronos validation layer\n");
@@ -50,7 +52,8 @@ static void snap_usage(FILE *f)
 
 /* --exact: the converged frame drawn once more with its triangles captured (selecting again
  * for the same camera keeps the LOD), each measured against the finest decoded surface
- * (relief_mesh_error()); prints the result. `triangles`: the frame's count, 0 if unknown. */
+ * (relief_mesh_error()), and the mesh checked for seams (relief_mesh_seams()); prints the
+ * results (a mesh with seams is reported, not an error: the picture was written). `triangles`: the frame's count, 0 if unknown. */
 static int snap_exact(const struct relief_file *f, struct tool_renderer *g, struct relief_terrain_view *tv,
                       const struct relief_view *view, uint64_t frame, uint64_t triangles)
 {
@@ -117,6 +120,19 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 		       (unsigned long long)e.kind_triangles[RELIEF_MESH_FINE_EDGE], e.kind_max_px[RELIEF_MESH_FAN],
 		       (unsigned long long)e.kind_triangles[RELIEF_MESH_FAN],
 		       (unsigned long long)(e.kind_triangles[RELIEF_MESH_OTHER] + e.kind_triangles[RELIEF_MESH_UNKNOWN]));
+		struct relief_mesh_seams m;
+		if ((ret = relief_mesh_seams(tri, (uint64_t)n, RELIEF_MESH_SEAM_TOL_M, &m)) < 0)
+			fprintf(stderr, "relief snap: --exact: %s\n", strerror(-ret));
+		else if (m.split + m.junctions == 0)
+			printf("relief snap: exact: watertight: %llu corners, none drawn at two heights, no T-junction\n",
+			       (unsigned long long)m.positions);
+		else
+			printf("relief snap: exact: NOT watertight: %llu positions drawn at two heights (first at sample "
+			       "%lld, %lld), %llu T-junctions (%llu off their edge by more than %g m, the largest %.3f m at "
+			       "sample %lld, %lld)\n",
+			       (unsigned long long)m.split, (long long)m.split_at.col, (long long)m.split_at.row,
+			       (unsigned long long)m.junctions, (unsigned long long)m.open, RELIEF_MESH_SEAM_TOL_M, m.max_gap_m,
+			       (long long)m.worst.col, (long long)m.worst.row);
 	}
 	free(tri);
 	free(quads);

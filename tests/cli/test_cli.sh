@@ -245,6 +245,7 @@ vkcheck snap-exact 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 
 expect_text snap-exact-line "relief snap: exact: "
 expect_text snap-exact-regular "regular triangles "
 expect_text snap-exact-kinds ", other 0"
+expect_text snap-exact-watertight "relief snap: exact: watertight: "
 # --loose: the transition strips unbounded (relief_view.loose_transitions): fewer triangles.
 vkcheck snap-loose 0 "$relief" snap "$tmp/ps.relief" --camera 100000,50000,5500 --look 128480,79200,3000 --size 96x54 -o "$tmp/loose.png" --loose
 loose_tri=$(grep -o '[0-9]* triangles' <<<"$LAST_OUT" | head -1 | cut -d' ' -f1)
