@@ -107,23 +107,31 @@ void assert_seamless(const struct relief_mesh_vertex *tri, uint64_t n)
 	assert_int_equal(m.open, 0);
 }
 
-enum { SEAMLESS_ROOM = 1u << 19 };
+enum { SEAMLESS_ROOM = 1u << 18 };
 
 uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts)
 {
-	if (!s->mesh_room) {
-		assert_int_equal(relief_terrain_view_mesh_enable(s->view, SEAMLESS_ROOM), 0);
-		s->mesh_room = SEAMLESS_ROOM;
-	}
 	struct relief_draw_options o = opts ? *opts : (struct relief_draw_options){ .fine = RELIEF_FINE_ERRORS };
 	o.mesh = true;
 	struct relief_terrain_stats st;
 	float *depth = malloc(sizeof(float) * v->width * v->height);
-	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)s->mesh_room);
-	assert_true(depth && tri);
-	render_with(s, v, &o, depth, &st);
-	int64_t n = relief_terrain_view_mesh(s->view, tri, NULL, s->mesh_room);
-	assert_true(n > 0 && n <= (int64_t)s->mesh_room);
+	assert_non_null(depth);
+	int64_t n = 0;
+	for (int pass = 0; pass < 2; pass++) { /* again with room for every triangle if they did not fit */
+		if (s->mesh_room < (pass ? (uint64_t)n : SEAMLESS_ROOM)) {
+			s->mesh_room = pass ? (uint32_t)n : SEAMLESS_ROOM;
+			assert_int_equal(relief_terrain_view_mesh_enable(s->view, s->mesh_room), 0);
+		}
+		render_with(s, v, &o, depth, &st);
+		n = relief_terrain_view_mesh(s->view, NULL, NULL, 0);
+		assert_true(n > 0);
+		if (n <= (int64_t)s->mesh_room)
+			break;
+	}
+	assert_true(n <= (int64_t)s->mesh_room);
+	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)n);
+	assert_non_null(tri);
+	assert_int_equal(relief_terrain_view_mesh(s->view, tri, NULL, (uint64_t)n), n);
 	assert_seamless(tri, (uint64_t)n);
 	free(tri);
 	free(depth);
