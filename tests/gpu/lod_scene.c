@@ -131,7 +131,7 @@ uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct re
 	assert_true(n <= (int64_t)s->mesh_room);
 	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)n);
 	assert_non_null(tri);
-	assert_int_equal(relief_terrain_view_mesh(s->view, tri, NULL, (uint64_t)n), n);
+	assert_int_equal(relief_terrain_view_mesh(s->view, tri, NULL, (uint32_t)n), n);
 	assert_seamless(tri, (uint64_t)n);
 	free(tri);
 	free(depth);

@@ -71,9 +71,10 @@ void render(struct scene *s, struct relief_view *v, float *depth, struct relief_
  * on its edge's line: only counting the junctions catches it); no forced splits
  * (lod_force.comp) in test_level_jumps_of_five, 4 T-junctions in its first view. */
 void assert_seamless(const struct relief_mesh_vertex *tri, uint64_t n);
-/* Draws v (converged) with opts and the view's mesh capture on (enabled at first use) and
- * asserts the frame's mesh seamless; returns its triangle count. The test group's context
- * must have the capture (gpu_test_mesh_capture). */
+/* Draws v (converged) with opts (NULL: relief's defaults) and the view's mesh capture on
+ * (room made at first use, and again when a frame draws more) and asserts the frame's mesh
+ * seamless; returns its triangle count. The test group's context must have the capture
+ * (gpu_test_mesh_capture). */
 uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts);
 
 struct comparison {
