@@ -53,7 +53,8 @@ static void snap_usage(FILE *f)
 /* --exact: the converged frame drawn once more with its triangles captured (selecting again
  * for the same camera keeps the LOD), each measured against the finest decoded surface
  * (relief_mesh_error()), and the mesh checked for seams (relief_mesh_seams()); prints the
- * results (a mesh with seams is reported, not an error: the picture was written). `triangles`: the frame's count, 0 if unknown. */
+ * results (a mesh with seams is reported, not an error: the picture was written).
+ * `triangles`: the frame's count, 0 if unknown. */
 static int snap_exact(const struct relief_file *f, struct tool_renderer *g, struct relief_terrain_view *tv,
                       const struct relief_view *view, uint64_t frame, uint64_t triangles)
 {

@@ -156,7 +156,6 @@ static void test_sweep_coasts_and_cliffs(void **state)
 	gpu_test_assert_clean(vk);
 }
 
-
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
