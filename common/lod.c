@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "lod.h"
+#include "strip_bound.h"
 
 int relief_view_check(const struct relief_view *v, const char **why)
 {
@@ -180,42 +181,80 @@ static bool wants_split(float err, float tau, bool was_split)
 	return err > tau || (was_split && err > RELIEF_LOD_MERGE * tau);
 }
 
+/* What the forced splits read: the view, and the split state they build (bit 1 of
+ * forced[id]). */
+struct force_ctx {
+	const struct relief_file *f;
+	const struct relief_view_origin *o;
+	float kappa, tau; /* tau: the coarse share (the split rule's) */
+	const uint8_t *split_prev, *resident;
+	const float *border; /* RELIEF_LOD_BORDER_FLOATS per patch, read where resident */
+	uint8_t *forced;
+};
+
+/* The screen error of a patch whose box is b: err * kappa / (distance to b), infinite inside. */
+static float box_error(const struct relief_box *b, float err, float kappa)
+{
+	float d = relief_box_distance(b);
+	return d > 0.0f ? err * kappa / d : INFINITY;
+}
+
+/* Patch id (level l, with an index entry) wants to split by its own error, with its
+ * hysteresis bit (forced splits aside). */
+static bool own_wish(const struct force_ctx *c, uint32_t l, uint32_t id)
+{
+	if (l + 1 >= c->f->layout.levels)
+		return false;
+	struct relief_box box;
+	relief_patch_box(c->f, c->o, id, &box);
+	struct relief_patch_record rec;
+	relief_file_record(c->f, id, &rec);
+	return wants_split(box_error(&box, rec.draw_error, c->kappa), c->tau, c->split_prev[id]);
+}
+
 /* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit, or is forced
  * to (bit 1 of `forced[id]`). A patch without an index entry (EMPTY outside its level's
  * window) does neither: nothing is drawn there (the GPU has no element for it). */
-static bool raw_wish(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
-                     const uint8_t *split_prev, const uint8_t *forced, uint32_t l, uint32_t x, uint32_t y)
+static bool raw_wish(const struct force_ctx *c, uint32_t l, uint32_t x, uint32_t y)
 {
-	if (l + 1 >= f->layout.levels)
+	if (l + 1 >= c->f->layout.levels)
 		return false;
 	uint32_t id = relief_patch_id(l, x, y);
-	if (relief_index_entry(&f->hdr, id) == UINT32_MAX)
+	if (relief_index_entry(&c->f->hdr, id) == UINT32_MAX)
 		return false;
-	if (forced[id] & 2)
-		return true;
-	struct relief_box box;
-	relief_patch_box(f, o, id, &box);
-	struct relief_patch_record rec;
-	relief_file_record(f, id, &rec);
-	float d = relief_box_distance(&box);
-	float err = d > 0.0f ? rec.draw_error * kappa / d : INFINITY;
-	return wants_split(err, tau, split_prev[id]);
+	return (c->forced[id] & 2) || own_wish(c, l, id);
 }
 
-/* shaders/lod_force.comp's twin: whether patch id, of level l in 1 .. L - 6, must split
- * because beside one of its sides a chain of patches of levels l .. l + 4 along the border
- * each wants to split or is forced to (a patch 5 levels finer would be drawn there). */
-static bool forced_split(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
-                         const uint8_t *split_prev, const uint8_t *forced, uint32_t id)
+/* Whether resident patch id's border on `side`, drawn at level k, projects beyond tau
+ * (the whole of it) from its box. */
+static bool border_beyond(const struct force_ctx *c, uint32_t id, uint32_t side, uint32_t k)
+{
+	float charge = c->border[(size_t)id * RELIEF_LOD_BORDER_FLOATS + 4 * side + k - 1];
+	if (!(charge > 0.0f))
+		return false; /* a border drawn exactly at any level: nothing to project */
+	struct relief_box box;
+	relief_patch_box(c->f, c->o, id, &box);
+	return box_error(&box, charge, c->kappa) > c->tau / (float)RELIEF_LOD_COARSE_SHARE;
+}
+
+/* shaders/lod_force.comp's twin: whether patch id, of level l in 1 .. L - 2, must split
+ * because beside one of its sides a chain of patches of levels l + 1 .. l + 4 along the
+ * border, each there because the one above it wants to split or is forced to, reaches
+ * level l + 4 with a wish to split (a patch 5 levels finer would be drawn there) or holds
+ * a resident patch, not wanting to split by its own error, whose border at its jump
+ * projects beyond tau. */
+static bool forced_split(const struct force_ctx *c, uint32_t id)
 {
 	uint32_t l, px, py;
-	relief_patch_coords(&f->layout, id, &l, &px, &py);
+	relief_patch_coords(&c->f->layout, id, &l, &px, &py);
+	if (raw_wish(c, l, px, py))
+		return false; /* it splits anyway */
 	const int dirs[4][2] = { { 0, -1 }, { 0, 1 }, { -1, 0 }, { 1, 0 } }; /* north, south, west, east */
-	for (int s = 0; s < 4; s++) {
+	for (uint32_t s = 0; s < 4; s++) {
 		int64_t qx = (int64_t)px + dirs[s][0], qy = (int64_t)py + dirs[s][1], n = (int64_t)1 << l;
 		if (qx < 0 || qy < 0 || qx >= n || qy >= n)
 			continue;
-		uint32_t chain = raw_wish(f, o, kappa, tau, split_prev, forced, l, (uint32_t)qx, (uint32_t)qy);
+		uint32_t chain = raw_wish(c, l, (uint32_t)qx, (uint32_t)qy);
 		for (uint32_t k = 1; k <= 4 && chain; k++) {
 			uint32_t m = 1u << k, next = 0;
 			for (uint32_t i = 0; i < m; i++) {
@@ -223,7 +262,14 @@ static bool forced_split(const struct relief_file *f, const struct relief_view_o
 					continue;
 				uint32_t cx = s == 2 ? (uint32_t)qx * m + m - 1 : s == 3 ? (uint32_t)qx * m : (uint32_t)qx * m + i;
 				uint32_t cy = s == 0 ? (uint32_t)qy * m + m - 1 : s == 1 ? (uint32_t)qy * m : (uint32_t)qy * m + i;
-				if (raw_wish(f, o, kappa, tau, split_prev, forced, l + k, cx, cy))
+				if (l + k >= c->f->layout.levels)
+					continue;
+				uint32_t cid = relief_patch_id(l + k, cx, cy);
+				if (relief_index_entry(&c->f->hdr, cid) == UINT32_MAX)
+					continue;
+				if (c->resident[cid] && !own_wish(c, l + k, cid) && border_beyond(c, cid, s ^ 1u, k))
+					return true;
+				if (raw_wish(c, l + k, cx, cy))
 					next |= 1u << i;
 			}
 			chain = next;
@@ -234,32 +280,54 @@ static bool forced_split(const struct relief_file *f, const struct relief_view_o
 	return false;
 }
 
-/* Sets bit 1 of forced[id] for every patch of levels 1 .. L - 6 that must split, to a fixed
+/* Sets bit 1 of forced[id] for every patch of levels 1 .. L - 2 that must split, to a fixed
  * point: a forced split counts as a wish in the chains of other patches, so one can force
- * another (trees of 11 levels or more; see lod_force.comp). Forcing only adds splits, so
- * repeating sweeps until one adds nothing reaches the least fixed point whatever the order,
- * the set the GPU's loop reaches too. `forced` is zero on entry. */
-static void force_splits(const struct relief_file *f, const struct relief_view_origin *o, float kappa, float tau,
-                         const uint8_t *split_prev, uint8_t *forced)
+ * another (see lod_force.comp). Forcing only adds splits, so repeating sweeps until one
+ * adds nothing reaches the least fixed point whatever the order, the set the GPU's loop
+ * reaches too. `forced` is zero on entry. */
+static void force_splits(const struct force_ctx *c)
 {
-	const uint32_t L = f->layout.levels;
-	if (L < 7)
+	const uint32_t L = c->f->layout.levels;
+	if (L < 3)
 		return;
-	const uint32_t end = relief_level_first_id(L - 5);
+	const uint32_t end = relief_level_first_id(L - 1);
 	for (bool changed = true; changed;) {
 		changed = false;
 		for (uint32_t id = 1; id < end; id++)
-			if (!(forced[id] & 2) && relief_index_entry(&f->hdr, id) != UINT32_MAX &&
-			    forced_split(f, o, kappa, tau, split_prev, forced, id)) {
-				forced[id] |= 2;
+			if (!(c->forced[id] & 2) && relief_index_entry(&c->f->hdr, id) != UINT32_MAX && forced_split(c, id)) {
+				c->forced[id] |= 2;
 				changed = true;
 			}
 	}
 }
 
+void relief_lod_border_charges(const float *eps, const float *strips, uint32_t blocks,
+                               float out[RELIEF_LOD_BORDER_FLOATS])
+{
+	const uint32_t last = blocks - 1, edges[4] = { 1, 3, 0, 2 }; /* north, south, west, east: edge index */
+	for (uint32_t side = 0; side < 4; side++) {
+		float charge[4] = { 0.0f, 0.0f, 0.0f, 0.0f };
+		for (uint32_t a = 0; a < blocks; a++) {
+			uint32_t bx = side < 2 ? a : side == 2 ? 0 : last, by = side >= 2 ? a : side == 0 ? 0 : last;
+			uint32_t b = by * blocks + bx;
+			const float *e = eps + 4 * (size_t)b, *st = strips + ((size_t)b * 4 + edges[side]) * RELIEF_STRIP_FLOATS;
+			float run = 0.0f, block_run = 0.0f;
+			for (uint32_t k = 0; k < 4; k++) {
+				/* shaders/terrain_texels.glsl, edge_charges_in(): eps made non-decreasing,
+				 * then the larger of it and the strip charge, non-decreasing again. */
+				block_run = k == 0 ? e[0] : fmaxf(block_run, e[k]);
+				float v = fmaxf(block_run, st[k]);
+				run = k == 0 ? v : fmaxf(run, v);
+				charge[k] = fmaxf(charge[k], run);
+			}
+		}
+		memcpy(out + 4 * side, charge, sizeof(charge));
+	}
+}
+
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
-                           const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw, uint32_t *want,
-                           uint32_t want_cap, uint32_t *n_want)
+                           const float *border, const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw,
+                           uint32_t *want, uint32_t want_cap, uint32_t *n_want)
 {
 	struct relief_view_origin o;
 	relief_view_origin(f, v, &o);
@@ -278,7 +346,8 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 	draw[0] = REACHABLE | WANTED;
 	/* split_next holds the forced splits (bit 1) until the traversal writes each entry. */
 	memset(split_next, 0, lay->patch_count);
-	force_splits(f, &o, kappa, tau, split_prev, split_next);
+	const struct force_ctx fc = { f, &o, kappa, tau, split_prev, resident, border, split_next };
+	force_splits(&fc);
 	for (uint32_t id = 0; id < lay->patch_count; id++) {
 		uint32_t l, px, py;
 		relief_patch_coords(lay, id, &l, &px, &py);
@@ -292,8 +361,7 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		relief_patch_box(f, &o, id, &box);
 		struct relief_patch_record rec;
 		relief_file_record(f, id, &rec);
-		float d = relief_box_distance(&box);
-		float err = d > 0.0f ? rec.draw_error * kappa / d : INFINITY;
+		float err = box_error(&box, rec.draw_error, kappa);
 		bool wish = l + 1 < lay->levels &&
 		            (wants_split(err, tau, split_prev[id]) || forced);
 		split_next[id] = wish;

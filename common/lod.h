@@ -147,8 +147,24 @@ double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *id
  * falls below RELIEF_LOD_MERGE * tau_c, so a still camera does not flicker. */
 #define RELIEF_LOD_MERGE 0.8f
 
+/* A patch's border charges: for each side s (0 north, 1 south, 2 west, 3 east) and level
+ * k = 1..4, at [4 s + k - 1], the largest over the patch's blocks along that side of what
+ * their edge there must keep within tau when drawn in segments of 2^k samples: eps_k, or
+ * the charge of a transition strip from it to any finer interior if larger, both made
+ * non-decreasing in k (shaders/terrain_texels.glsl, edge_charges_in()). A patch k levels
+ * finer than the patch across its border draws the border in such segments (or coarser:
+ * the seal takes the coarser patch's vertices), so the selection forces the coarser one
+ * to split where this projects beyond tau (shaders/lod_force.comp). `eps`: the patch's
+ * block errors (blocks^2 x 4, raster order, as the file stores them); `strips`: its
+ * transition strip bounds (relief_strip_bounds(), RELIEF_STRIP_FLOATS per block and edge
+ * west, north, east, south). */
+#define RELIEF_LOD_BORDER_FLOATS 16
+void relief_lod_border_charges(const float *eps, const float *strips, uint32_t blocks,
+                               float out[RELIEF_LOD_BORDER_FLOATS]);
+
 /* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
- * drawn (resident in the cache); `split_prev` / `split_next` are the view's hysteresis bits
+ * drawn (resident in the cache), and `border` holds RELIEF_LOD_BORDER_FLOATS border charges
+ * per patch id (relief_lod_border_charges()), read for resident patches; `split_prev` / `split_next` are the view's hysteresis bits
  * (one byte per patch; next is written for every patch: 0 for a patch the selection does
  * not visit, one with an ancestor outside the frustum or not wanting to split, as the
  * GPU's selection only visits the others). Fills `draw[id]` (1 = draw) and
@@ -158,5 +174,5 @@ double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *id
  * not, so a cold cache learns the whole chain down to the finest patch in one frame. In id
  * order (coarse first); `*n_want` is their count. */
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
-                           const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw, uint32_t *want,
-                           uint32_t want_cap, uint32_t *n_want);
+                           const float *border, const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw,
+                           uint32_t *want, uint32_t want_cap, uint32_t *n_want);

@@ -14,7 +14,7 @@
 // distance to the parent's box.
 // A patch wants to split by its screen-space error (with hysteresis: bit 0 of its split
 // state, the view's last frame's decision, 0 for a patch that frame did not visit) or when
-// lod_force.comp, run before for trees of 7 levels or more, set bit 1. It is drawn when
+// lod_force.comp, run before for trees of 3 levels or more, set bit 1. It is drawn when
 // it is resident, in the frustum, and either does not want to split or lacks children.
 // Box, distance and error use the same float arithmetic as the CPU, written `precise` so
 // that no multiply-add is fused.

@@ -15,6 +15,10 @@ layout(push_constant) uniform Push {
 	uint ratio;
 } pc;
 
+// The share of tau the selection's own rule takes (pc.tau is tau times it):
+// RELIEF_LOD_COARSE_SHARE, common/lod.h.
+const float COARSE_SHARE = 0.5;
+
 // Entries in the tree (patch_entry.glsl): the per-patch buffers' length.
 uint entry_count() { uvec4 w = window_at(pc.levels - 1u); return w.z + w.x * w.y; }
 

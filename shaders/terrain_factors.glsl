@@ -23,18 +23,8 @@
 // Skirt quads remain only along the terrain's outer edge (a curtain): its block's factor
 // along the edge, 1 across.
 
-// A block's errors eps_1..eps_4, made non-decreasing: a coarser level's measured error can
-// be below a finer one's (the triangulations do not nest), and max(eps_1..eps_d) still bounds
-// level d. With it, a level that passes the test implies every finer level passes.
-vec4 block_eps_at(int layer, ivec2 bl)
-{
-	uint base = block_eps_index(layer, bl, pc.blocks);
-	vec4 e = vec4(block_err(base), block_err(base + 1u), block_err(base + 2u), block_err(base + 3u));
-	e.y = max(e.x, e.y);
-	e.z = max(e.y, e.z);
-	e.w = max(e.z, e.w);
-	return e;
-}
+// A block's errors eps_1..eps_4, made non-decreasing (running_max(), terrain_texels.glsl).
+vec4 block_eps_at(int layer, ivec2 bl) { return block_eps_in(layer, bl, pc.blocks); }
 
 vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec2(bx, by)); }
 
@@ -55,14 +45,7 @@ bool strips_bounded() { return (pc.mode & MODE_LOOSE_STRIPS) == 0u; }
 // interior, whatever the interior turns out to be, if larger; made non-decreasing again.
 vec4 edge_eps_at(int layer, ivec2 bl, uint edge, vec4 eps)
 {
-	if (!strips_bounded())
-		return eps;
-	uint i = block_strip_index(layer, bl, edge, pc.blocks);
-	vec4 e = max(eps, vec4(block_err(i), block_err(i + 1u), block_err(i + 2u), block_err(i + 3u)));
-	e.y = max(e.x, e.y);
-	e.z = max(e.y, e.z);
-	e.w = max(e.z, e.w);
-	return e;
+	return strips_bounded() ? edge_charges_in(layer, bl, edge, pc.blocks, eps) : eps;
 }
 
 // The charge of a strip along edge `edge` of block bl at level d = 0..2 against an interior

@@ -249,10 +249,11 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	VkDescriptorSet set = v->set[v->parity];
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->select_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
-	if (sp.levels >= 7) {
-		/* Forced splits (lod_force.comp): levels 1 .. L - 6, where a patch could otherwise
-		 * be drawn beside one 5 levels finer; one workgroup sweeps them to a fixed point.
-		 * Nothing for shallower trees. */
+	if (sp.levels >= 3) {
+		/* Forced splits (lod_force.comp): levels 1 .. L - 2, where a patch could otherwise
+		 * be drawn beside one 5 levels finer or beside a finer border that its vertices
+		 * cannot draw within tau; one workgroup sweeps them to a fixed point. Nothing for
+		 * shallower trees. */
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->force);
 		vkCmdDispatch(cmd, 1, 1, 1);
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,

@@ -197,7 +197,7 @@ struct draw_pipelines {
 struct terrain_program {
 	VkDescriptorSetLayout set_layout;
 	VkPipelineLayout select_layout, commands_layout, factors_layout, draw_layout;
-	/* force: lod_force.comp, the selection's pre-pass for trees of 7 levels or more */
+	/* force: lod_force.comp, the selection's pre-pass (forced splits) for trees of 3 levels or more */
 	VkPipeline select, force, commands;
 	/* The factor and border passes per kind of frame: [0] relief's without and [1] with
 	 * geomorphing, [2] chunked LOD's (RELIEF_FINE_FULL), [3] the distance baseline's; each

@@ -57,6 +57,40 @@ void scene_close(struct scene *s)
 	relief_patch_cache_destroy(s->cache);
 	relief_file_close(s->f);
 	free(s->img);
+	free(s->border);
+	free(s->border_layer);
+}
+
+const float *scene_residency(struct scene *s, uint8_t *resident)
+{
+	const uint32_t n = s->f->hdr.patch_count, P = s->f->hdr.patch_size;
+	if (!s->border) {
+		s->border = calloc((size_t)n * RELIEF_LOD_BORDER_FLOATS, sizeof(float));
+		s->border_layer = malloc(sizeof(int32_t) * n);
+		assert_non_null(s->border);
+		assert_non_null(s->border_layer);
+		for (uint32_t id = 0; id < n; id++)
+			s->border_layer[id] = -1;
+	}
+	const uint32_t blocks = (P - 1) / s->f->hdr.block_cells;
+	float *rec = malloc(sizeof(float) * relief_patch_layer_floats(P));
+	assert_non_null(rec);
+	for (uint32_t id = 0; id < n; id++) {
+		resident[id] = relief_patch_cache_state(s->cache, id) == RELIEF_PATCH_RESIDENT;
+		int layer = relief_patch_cache_layer(s->cache, id);
+		float *out = s->border + (size_t)id * RELIEF_LOD_BORDER_FLOATS;
+		if (!resident[id] || layer < 0) {
+			memset(out, 0, sizeof(float) * RELIEF_LOD_BORDER_FLOATS);
+			continue;
+		}
+		if (s->border_layer[id] == layer)
+			continue;
+		assert_int_equal(relief_patch_cache_read_layer(s->cache, (uint32_t)layer, NULL, NULL, rec), 0);
+		relief_lod_border_charges(rec, rec + relief_patch_block_floats(P), blocks, out);
+		s->border_layer[id] = layer;
+	}
+	free(rec);
+	return s->border;
 }
 
 void load_everything(struct scene *s)
@@ -228,10 +262,9 @@ uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const str
 	const uint32_t n = s->f->hdr.patch_count;
 	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
 	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
-	for (uint32_t id = 0; id < n; id++)
-		resident[id] = relief_patch_cache_state(s->cache, id) == RELIEF_PATCH_RESIDENT;
+	const float *border = scene_residency(s, resident);
 	uint32_t ng = view_drawn(s->view, gpu, n);
-	uint32_t nc = relief_lod_select(s->f, v, resident, prev, next, draw, want, n, &n_want);
+	uint32_t nc = relief_lod_select(s->f, v, resident, border, prev, next, draw, want, n, &n_want);
 	uint32_t k = 0;
 	for (uint32_t id = 0; id < n; id++)
 		if (draw[id])
@@ -314,13 +347,13 @@ uint32_t hash32(uint32_t x)
 	return x;
 }
 
-struct relief_dem coast_dem(int N)
+struct relief_dem coast_dem(int N, int band)
 {
 	struct relief_dem dem = grid_dem(N);
 	for (int y = 0; y < N; y++)
 		for (int x = N / 2 + 1; x < N; x++)
 			dem.heights[(size_t)y * N + x] = (float)(5.0 * (x - N / 2) + (hash32((uint32_t)(y * N + x)) % 4000) * 0.05 *
-			                                         fmin(1.0, (x - N / 2) / 16.0));
+			                                         fmin(1.0, fmax(0.0, (x - N / 2 - band) / 16.0)));
 	return dem;
 }
 
@@ -397,7 +430,7 @@ void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const str
 
 void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N)
 {
-	struct relief_dem dem = coast_dem(N);
+	struct relief_dem dem = coast_dem(N, COAST_BAND);
 	bound_open_dem_patch(b, vk, &dem, 65);
 	relief_dem_finish(&dem);
 }

@@ -25,6 +25,11 @@ struct scene {
 	struct relief_terrain *terrain;
 	struct relief_terrain_view *view;
 	uint32_t mesh_room; /* triangles the view's mesh capture holds (0: not enabled) */
+	/* scene_residency(): each patch's border charges, and the layer they were read from
+	 * (-1: none yet); a patch decodes to the same record in any layer, so they hold while
+	 * it stays there. */
+	float *border;
+	int32_t *border_layer;
 };
 
 /* A DEM packed at tolerance tol and moved by (dx, dy), in a 64 MiB cache of at most
@@ -43,6 +48,11 @@ void scene_close(struct scene *s);
 
 /* Everything resident, so that selection is the only variable. */
 void load_everything(struct scene *s);
+
+/* resident[id] for every patch (the cache's state), and the border charges of the
+ * resident ones (relief_lod_border_charges() of their layers' block records, read back):
+ * what relief_lod_select() takes. The array is the scene's; 0 for patches not resident. */
+const float *scene_residency(struct scene *s, uint8_t *resident);
 
 int cmp_u32(const void *a, const void *b);
 
@@ -129,11 +139,16 @@ struct relief_dem grid_dem(int N);
 /* A 32-bit integer hash (mixing constants of the "lowbias32" family): the test terrains'
  * noise and the sweeps' camera positions, the same on every machine. */
 uint32_t hash32(uint32_t x);
-/* N x N samples of that grid: a flat sea west of the middle column, rough land east of it
- * (a 5 m per sample rise plus up to 200 m of per-sample noise, ramped in over 16 samples).
- * Packed with 65-sample patches, the sea's coarse patches border land drawn several levels
- * finer. */
-struct relief_dem coast_dem(int N);
+/* N x N samples of that grid: a flat sea west of the middle column, land east of it (a 5 m
+ * per sample rise), rough from `band` samples inland (up to 200 m of per-sample noise,
+ * ramped in over 16 samples). Packed with 65-sample patches, the sea's coarse patches
+ * border land drawn several levels finer. With band 0 the land is rough at the shore,
+ * and a patch drawn there can rarely draw its border with a coarse sea patch's vertices
+ * within tau (lod_force.comp splits the sea instead); with band 32 (COAST_BAND) its border
+ * blocks are smooth at the two finest levels, so the sea stays coarse beside them: the
+ * level jumps the seals are tested with. */
+#define COAST_BAND 32
+struct relief_dem coast_dem(int N, int band);
 /* View i of the coast sweep: along the coast, 300-6,300 m up, looking down at the sea or
  * the land. */
 struct pose coast_sweep_pose(int N, uint32_t i);
@@ -165,7 +180,8 @@ void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);
 /* The same for a DEM of the test's own (the caller keeps it). */
 void bound_open_dem(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem);
 void bound_open_dem_patch(struct bound_scene *b, struct relief_vk *vk, const struct relief_dem *dem, uint32_t patch);
-/* The N x N coast (coast_dem()) packed with 65-sample patches. */
+/* The N x N coast with a smooth band (coast_dem(N, COAST_BAND)) packed with 65-sample
+ * patches. */
 void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N);
 /* The finest level and the depth images for a scene opened otherwise (scene_open_at()). */
 void bound_buffers(struct bound_scene *b);

@@ -268,7 +268,7 @@ static void test_deep_level_jumps(void **state)
 static void test_level_jumps_of_five(void **state)
 {
 	enum { N = 4097 };
-	struct relief_dem dem = coast_dem(N);
+	struct relief_dem dem = coast_dem(N, COAST_BAND);
 	struct scene s;
 	scene_open_dem_patch(&s, vk, &dem, 65, 1.0, BW, BH, 0);
 	relief_dem_finish(&dem);

@@ -200,6 +200,49 @@ static void test_mesh_level_jumps(void **state)
 	mesh_within_tau_view(&b, "coast", poses, sizeof(poses) / sizeof(poses[0]), taus, 3, 0, 0);
 }
 
+/* A finer patch's border beside a coarser one: drawn with the coarser patch's vertices, in
+ * segments of at least 2^j of its own samples across a jump of j levels, whatever its
+ * blocks need; the strips from there to its interior are within its border charge at
+ * level j (relief_lod_border_charges()), and the selection splits the coarser patch where
+ * that projects beyond tau (lod_force.comp). The coast rough at the shore (coast_dem(N,
+ * 0)), view 206 of the thirty-ninth December 2026 session's 300-view sweep
+ * (test_lod_sweep.c), where a level-1 sea patch beside level-4 land put a strip triangle
+ * 10 m off, 1.093 px at tau = 0.5 (2.19 tau; the same mesh at tau 1 and 2): now the rule
+ * fires there (more patches than a selection without border charges), the GPU's
+ * selection equals the CPU reference's, and every triangle is within tau. Negative
+ * control, run when the test was written: without the rule (lod_force.comp and the CPU
+ * twin) the view draws 4 patches and a triangle 10 m, 1.093 px off at tau = 0.5. */
+static void test_mesh_finer_border(void **state)
+{
+	enum { N = 1025 };
+	struct relief_dem dem = coast_dem(N, 0);
+	struct bound_scene b;
+	bound_open_dem_patch(&b, vk, &dem, 65);
+	relief_dem_finish(&dem);
+	load_everything(&b.s);
+	const double e[3] = { 17276.5, 11044.1, 214.2 }, yaw = 2.9374, pitch = -0.2250;
+	const struct pose poses[] = { { { e[0], e[1], e[2] },
+		                        { e[0] + cos(yaw) * cos(pitch) * 1000, e[1] + sin(yaw) * cos(pitch) * 1000,
+		                          e[2] + sin(pitch) * 1000 } } };
+	struct relief_view v = pose_view(&poses[0]);
+	v.tau = 0.5;
+	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS };
+	uint32_t drawn = fresh_view_matches_cpu(&b.s, &v, 1, &bare);
+	/* The CPU reference without border charges: the selection before the rule. */
+	const uint32_t n = b.s.f->hdr.patch_count;
+	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
+	uint32_t *want = malloc(4 * (size_t)n), n_want;
+	float *none = calloc((size_t)n * RELIEF_LOD_BORDER_FLOATS, sizeof(float));
+	assert_true(resident && prev && next && draw && want && none);
+	scene_residency(&b.s, resident);
+	uint32_t without = relief_lod_select(b.s.f, &v, resident, none, prev, next, draw, want, n, &n_want);
+	print_message("rough coast, view 206 of the sweep: %u patches, %u without border charges\n", drawn, without);
+	assert_true(drawn > without);
+	free(resident); free(prev); free(next); free(draw); free(want); free(none);
+	const double taus[] = { 0.5, 1.0 };
+	mesh_within_tau_view(&b, "rough coast", poses, 1, taus, 2, 0, 0);
+}
+
 /* Mont Blanc at UTM-like coordinates (500 km east, 5,000 km north) measures as at the
  * origin, to a millionth: the capture's vertices are grid samples and the measure works
  * in double precision. */
@@ -401,6 +444,7 @@ int main(void)
 		cmocka_unit_test(test_mesh_driving_cameras),
 		cmocka_unit_test(test_mesh_wide_field_of_view),
 		cmocka_unit_test(test_mesh_level_jumps),
+		cmocka_unit_test(test_mesh_finer_border),
 		cmocka_unit_test(test_mesh_huge_coordinates),
 		cmocka_unit_test(test_mesh_capture_and_measure),
 		cmocka_unit_test(test_mesh_loose_transitions),

@@ -138,9 +138,9 @@ static void test_sweep_dems(void **state)
 
 static void test_sweep_coasts_and_cliffs(void **state)
 {
-	const int sizes[] = { 1025, 2049 };
+	const int sizes[] = { 1025, 2049 }, bands[] = { 0, COAST_BAND }; /* rough at the shore, smooth there */
 	for (int k = 0; k < 2; k++) {
-		struct relief_dem dem = coast_dem(sizes[k]);
+		struct relief_dem dem = coast_dem(sizes[k], bands[k]);
 		struct bound_scene b;
 		bound_open_dem_patch(&b, vk, &dem, 65);
 		relief_dem_finish(&dem);
