@@ -188,7 +188,7 @@ struct force_ctx {
 	const struct relief_view_origin *o;
 	float kappa, tau; /* tau: the coarse share (the split rule's) */
 	const uint8_t *split_prev, *resident;
-	const float *border; /* RELIEF_LOD_BORDER_FLOATS per patch, read where resident */
+	const float *border; /* RELIEF_LOD_BORDER_FLOATS per patch, read where resident; NULL: no border rule */
 	uint8_t *forced;
 };
 
@@ -267,7 +267,7 @@ static bool forced_split(const struct force_ctx *c, uint32_t id)
 				uint32_t cid = relief_patch_id(l + k, cx, cy);
 				if (relief_index_entry(&c->f->hdr, cid) == UINT32_MAX)
 					continue;
-				if (c->resident[cid] && !own_wish(c, l + k, cid) && border_beyond(c, cid, s ^ 1u, k))
+				if (c->border && c->resident[cid] && !own_wish(c, l + k, cid) && border_beyond(c, cid, s ^ 1u, k))
 					return true;
 				if (raw_wish(c, l + k, cx, cy))
 					next |= 1u << i;
@@ -346,7 +346,9 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 	draw[0] = REACHABLE | WANTED;
 	/* split_next holds the forced splits (bit 1) until the traversal writes each entry. */
 	memset(split_next, 0, lay->patch_count);
-	const struct force_ctx fc = { f, &o, kappa, tau, split_prev, resident, border, split_next };
+	/* The border rule is for bounded strips only (lod_force.comp). */
+	const struct force_ctx fc = { f, &o, kappa, tau, split_prev, resident, v->loose_transitions ? NULL : border,
+		                      split_next };
 	force_splits(&fc);
 	for (uint32_t id = 0; id < lay->patch_count; id++) {
 		uint32_t l, px, py;

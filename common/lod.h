@@ -164,7 +164,8 @@ void relief_lod_border_charges(const float *eps, const float *strips, uint32_t b
 
 /* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
  * drawn (resident in the cache), and `border` holds RELIEF_LOD_BORDER_FLOATS border charges
- * per patch id (relief_lod_border_charges()), read for resident patches; `split_prev` / `split_next` are the view's hysteresis bits
+ * per patch id (relief_lod_border_charges()), read for resident patches unless the view
+ * leaves its transition strips unbounded (loose_transitions: no border rule); `split_prev` / `split_next` are the view's hysteresis bits
  * (one byte per patch; next is written for every patch: 0 for a patch the selection does
  * not visit, one with an ancestor outside the frustum or not wanting to split, as the
  * GPU's selection only visits the others). Fills `draw[id]` (1 = draw) and

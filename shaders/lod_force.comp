@@ -24,6 +24,8 @@
 //   forced set (below); a forced F is still looked at: more splits than needed, never
 //   fewer. A patch P that wants to split anyway is not looked at: forcing it would change
 //   nothing.
+//   Only for relief's fine LOD with its strips bounded (pc.level, terrain_frame.c): the
+//   baselines' selections and a view with loose_transitions go without it.
 // Culling is ignored: more splits than needed, never fewer. It sets bit 1 of P's split
 // state, which the selection reads as "wants to split".
 //
@@ -91,6 +93,7 @@ bool chain_beside(uint e)
 	if (wants(l, uint(p.x), uint(p.y)))
 		return false; // it splits anyway
 	precise float tau = pc.tau / COARSE_SHARE;
+	bool border_rule = pc.level != 0u; // relief's own fine LOD with bounded strips (terrain_frame.c)
 	const ivec2 dirs[4] = ivec2[4](ivec2(0, -1), ivec2(0, 1), ivec2(-1, 0), ivec2(1, 0)); // north, south, west, east
 	for (uint s = 0u; s < 4u; s++) {
 		ivec2 q = p + dirs[s];
@@ -109,7 +112,7 @@ bool chain_beside(uint e)
 				if (ce == NO_ENTRY)
 					continue;
 				int layer = layer_at(ce);
-				if (layer >= 0 && !wants_with(l + k, uint(c.x), uint(c.y), 1u) &&
+				if (border_rule && layer >= 0 && !wants_with(l + k, uint(c.x), uint(c.y), 1u) &&
 				    border_px(l + k, c, ce, layer, s ^ 1u, k) > tau)
 					return true;
 				if (wants(l + k, uint(c.x), uint(c.y)))

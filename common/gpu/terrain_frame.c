@@ -253,7 +253,12 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 		/* Forced splits (lod_force.comp): levels 1 .. L - 2, where a patch could otherwise
 		 * be drawn beside one 5 levels finer or beside a finer border that its vertices
 		 * cannot draw within tau; one workgroup sweeps them to a fixed point. Nothing for
-		 * shallower trees. */
+		 * shallower trees. The border rule is relief's own: the baselines' selections
+		 * (whose tau holds no coarse share) and views that leave the transition strips
+		 * unbounded do without it. */
+		const uint32_t border_rule = opts->fine == RELIEF_FINE_ERRORS && !view->loose_transitions;
+		vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, offsetof(struct select_push, level),
+		                   sizeof(border_rule), &border_rule);
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->force);
 		vkCmdDispatch(cmd, 1, 1, 1);
 		barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,

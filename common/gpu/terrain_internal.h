@@ -37,7 +37,9 @@ struct select_push {
 	float frac[2], spacing[2];
 	float cam_z, kappa, tau;
 	uint32_t frame;
-	uint32_t level; /* lod_select.comp: the level a dispatch visits (set per dispatch) */
+	uint32_t level; /* lod_select.comp: the level a dispatch visits (set per dispatch);
+	                 * lod_force.comp: 1 where the border charges apply (relief's fine LOD,
+	                 * strips bounded), else 0 */
 	uint32_t levels, P, want_cap;
 	float delta_finest;
 	uint32_t ratio;

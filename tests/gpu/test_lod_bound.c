@@ -205,9 +205,9 @@ static uint32_t background_pixels(const float *depth, uint32_t w, uint32_t h)
 }
 
 /* Level jumps wider than a patch's blocks: a flat sea (x up to the middle column) beside
- * rough land (a 5 m per sample rise plus up to 200 m of per-sample noise, ramped in over 16
- * samples), 1025 x 1025 samples 30 m apart, packed with 65-sample patches (4 x 4 blocks,
- * five levels). The sea's level-1 patches stay whole while the land beside them is drawn
+ * land (a 5 m per sample rise, rough from 32 samples inland with up to 200 m of per-sample
+ * noise: coast_dem(N, COAST_BAND)), 1025 x 1025 samples 30 m apart, packed with 65-sample
+ * patches (4 x 4 blocks, five levels). The sea's level-1 patches stay whole while the land beside them is drawn
  * 3 levels finer, so several finer patches share one block edge of the sea. Skirts off,
  * the views of a 100-view sweep along the coast (tau 1, 4, 8, 16) that showed a single-
  * pixel hole while a border edge's segments were raised only for a finer patch covering
@@ -215,7 +215,9 @@ static uint32_t background_pixels(const float *depth, uint32_t w, uint32_t h)
  * terrain_seal.glsl): no hole now, and the frames do have such a jump. Negative control,
  * run when the test was written: with the old finer_across() views 57 (tau 16), 72 (tau 8)
  * and 93 (tau 16) show one hole each; the 2049 x 2049 sweep (jumps of 4) 7 holes in 400
- * frames, none now. */
+ * frames, none now. (Those controls ran on the coast rough at the shore, where since the
+ * fortieth December 2026 session the selection splits the sea instead: lod_force.comp's
+ * border charges.) */
 static void test_deep_level_jumps(void **state)
 {
 	enum { N = 1025 };
