@@ -264,7 +264,8 @@ static void test_deep_level_jumps(void **state)
  * than 4 levels apart side by side, and the GPU's selection equals the CPU reference's
  * (relief_lod_select()) on each. Negative control, run when the test was written: without
  * the pre-pass each of the five frames shows one background pixel and draws a jump of 5
- * (15 of the sweep's 300 frames). Each frame's mesh is also checked for seams
+ * (15 of the sweep's 300 frames); run again on the coast smooth at the shore (fortieth
+ * December 2026 session), without the five-level rule view 9 shows one and a jump of 5. Each frame's mesh is also checked for seams
  * (render_seamless()): no T-junction (the control, run when that was added: view 9
  * without the pre-pass, 4). */
 static void test_level_jumps_of_five(void **state)
