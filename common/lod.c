@@ -188,7 +188,7 @@ struct force_ctx {
 	const struct relief_view_origin *o;
 	float kappa, tau; /* tau: the coarse share (the split rule's) */
 	const uint8_t *split_prev, *resident;
-	const float *border; /* RELIEF_LOD_BORDER_FLOATS per patch, read where resident; NULL: no border rule */
+	const struct relief_lod_borders *border; /* resident patches' charges; NULL: no border rule */
 	uint8_t *forced;
 };
 
@@ -229,7 +229,8 @@ static bool raw_wish(const struct force_ctx *c, uint32_t l, uint32_t x, uint32_t
  * (the whole of it) from its box. */
 static bool border_beyond(const struct force_ctx *c, uint32_t id, uint32_t side, uint32_t k)
 {
-	float charge = c->border[(size_t)id * RELIEF_LOD_BORDER_FLOATS + 4 * side + k - 1];
+	const float *charges = c->border->charges(c->border->data, id);
+	float charge = charges ? charges[4 * side + k - 1] : 0.0f;
 	if (!(charge > 0.0f))
 		return false; /* a border drawn exactly at any level: nothing to project */
 	struct relief_box box;
@@ -326,8 +327,9 @@ void relief_lod_border_charges(const float *eps, const float *strips, uint32_t b
 }
 
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
-                           const float *border, const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw,
-                           uint32_t *want, uint32_t want_cap, uint32_t *n_want)
+                           const struct relief_lod_borders *border, const uint8_t *split_prev,
+                           uint8_t *split_next, uint8_t *draw, uint32_t *want, uint32_t want_cap,
+                           uint32_t *n_want)
 {
 	struct relief_view_origin o;
 	relief_view_origin(f, v, &o);

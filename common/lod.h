@@ -162,10 +162,20 @@ double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *id
 void relief_lod_border_charges(const float *eps, const float *strips, uint32_t blocks,
                                float out[RELIEF_LOD_BORDER_FLOATS]);
 
+/* Where relief_lod_select() finds a resident patch's border charges: charges(data, id)
+ * returns its RELIEF_LOD_BORDER_FLOATS floats, or NULL if it has none (the rule then
+ * passes over that patch). Asked only for resident patches along a border, so a caller
+ * can keep them per cache layer rather than per patch of the tree. */
+struct relief_lod_borders {
+	const float *(*charges)(void *data, uint32_t id);
+	void *data;
+};
+
 /* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
- * drawn (resident in the cache), and `border` holds RELIEF_LOD_BORDER_FLOATS border charges
- * per patch id (relief_lod_border_charges()), read for resident patches unless the view
- * leaves its transition strips unbounded (loose_transitions: no border rule); `split_prev` / `split_next` are the view's hysteresis bits
+ * drawn (resident in the cache), and `border` gives resident patches' border charges
+ * (relief_lod_borders), unless the view leaves its transition strips unbounded
+ * (loose_transitions: no border rule, as with `border` NULL, which the GPU's selection
+ * does not match); `split_prev` / `split_next` are the view's hysteresis bits
  * (one byte per patch; next is written for every patch: 0 for a patch the selection does
  * not visit, one with an ancestor outside the frustum or not wanting to split, as the
  * GPU's selection only visits the others). Fills `draw[id]` (1 = draw) and
@@ -175,5 +185,6 @@ void relief_lod_border_charges(const float *eps, const float *strips, uint32_t b
  * not, so a cold cache learns the whole chain down to the finest patch in one frame. In id
  * order (coarse first); `*n_want` is their count. */
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
-                           const float *border, const uint8_t *split_prev, uint8_t *split_next, uint8_t *draw,
-                           uint32_t *want, uint32_t want_cap, uint32_t *n_want);
+                           const struct relief_lod_borders *border, const uint8_t *split_prev,
+                           uint8_t *split_next, uint8_t *draw, uint32_t *want, uint32_t want_cap,
+                           uint32_t *n_want);

@@ -57,20 +57,30 @@ void scene_close(struct scene *s)
 	relief_patch_cache_destroy(s->cache);
 	relief_file_close(s->f);
 	free(s->img);
-	free(s->border);
-	free(s->border_layer);
+	free(s->layer_border);
+	free(s->layer_owner);
 }
 
-const float *scene_residency(struct scene *s, uint8_t *resident)
+/* relief_lod_borders.charges for a scene: its layer's charges (scene_residency()). */
+static const float *scene_charges(void *data, uint32_t id)
+{
+	const struct scene *s = data;
+	int layer = relief_patch_cache_layer(s->cache, id);
+	return layer >= 0 && s->layer_owner[layer] == id ? s->layer_border + (size_t)layer * RELIEF_LOD_BORDER_FLOATS
+	                                                 : NULL;
+}
+
+struct relief_lod_borders scene_residency(struct scene *s, uint8_t *resident)
 {
 	const uint32_t n = s->f->hdr.patch_count, P = s->f->hdr.patch_size;
-	if (!s->border) {
-		s->border = calloc((size_t)n * RELIEF_LOD_BORDER_FLOATS, sizeof(float));
-		s->border_layer = malloc(sizeof(int32_t) * n);
-		assert_non_null(s->border);
-		assert_non_null(s->border_layer);
-		for (uint32_t id = 0; id < n; id++)
-			s->border_layer[id] = -1;
+	const uint32_t layers = relief_patch_cache_pool(s->cache)->layers;
+	if (!s->layer_border) {
+		s->layer_border = malloc(sizeof(float) * RELIEF_LOD_BORDER_FLOATS * layers);
+		s->layer_owner = malloc(sizeof(uint32_t) * layers);
+		assert_non_null(s->layer_border);
+		assert_non_null(s->layer_owner);
+		for (uint32_t k = 0; k < layers; k++)
+			s->layer_owner[k] = UINT32_MAX;
 	}
 	const uint32_t blocks = (P - 1) / s->f->hdr.block_cells;
 	float *rec = malloc(sizeof(float) * relief_patch_layer_floats(P));
@@ -78,19 +88,15 @@ const float *scene_residency(struct scene *s, uint8_t *resident)
 	for (uint32_t id = 0; id < n; id++) {
 		resident[id] = relief_patch_cache_state(s->cache, id) == RELIEF_PATCH_RESIDENT;
 		int layer = relief_patch_cache_layer(s->cache, id);
-		float *out = s->border + (size_t)id * RELIEF_LOD_BORDER_FLOATS;
-		if (!resident[id] || layer < 0) {
-			memset(out, 0, sizeof(float) * RELIEF_LOD_BORDER_FLOATS);
-			continue;
-		}
-		if (s->border_layer[id] == layer)
+		if (!resident[id] || layer < 0 || s->layer_owner[layer] == id)
 			continue;
 		assert_int_equal(relief_patch_cache_read_layer(s->cache, (uint32_t)layer, NULL, NULL, rec), 0);
-		relief_lod_border_charges(rec, rec + relief_patch_block_floats(P), blocks, out);
-		s->border_layer[id] = layer;
+		relief_lod_border_charges(rec, rec + relief_patch_block_floats(P), blocks,
+		                          s->layer_border + (size_t)layer * RELIEF_LOD_BORDER_FLOATS);
+		s->layer_owner[layer] = id;
 	}
 	free(rec);
-	return s->border;
+	return (struct relief_lod_borders){ scene_charges, s };
 }
 
 void load_everything(struct scene *s)
@@ -262,9 +268,9 @@ uint32_t gpu_matches_cpu(struct scene *s, const struct relief_view *v, const str
 	const uint32_t n = s->f->hdr.patch_count;
 	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
 	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), *cpu = malloc(4 * n), n_want;
-	const float *border = scene_residency(s, resident);
+	const struct relief_lod_borders border = scene_residency(s, resident);
 	uint32_t ng = view_drawn(s->view, gpu, n);
-	uint32_t nc = relief_lod_select(s->f, v, resident, border, prev, next, draw, want, n, &n_want);
+	uint32_t nc = relief_lod_select(s->f, v, resident, &border, prev, next, draw, want, n, &n_want);
 	uint32_t k = 0;
 	for (uint32_t id = 0; id < n; id++)
 		if (draw[id])

@@ -25,11 +25,11 @@ struct scene {
 	struct relief_terrain *terrain;
 	struct relief_terrain_view *view;
 	uint32_t mesh_room; /* triangles the view's mesh capture holds (0: not enabled) */
-	/* scene_residency(): each patch's border charges, and the layer they were read from
-	 * (-1: none yet); a patch decodes to the same record in any layer, so they hold while
-	 * it stays there. */
-	float *border;
-	int32_t *border_layer;
+	/* scene_residency(): each cache layer's border charges and the patch they were read
+	 * for (UINT32_MAX: none yet); a patch decodes to the same record in any layer, so they
+	 * hold while it stays there. */
+	float *layer_border;
+	uint32_t *layer_owner;
 };
 
 /* A DEM packed at tolerance tol and moved by (dx, dy), in a 64 MiB cache of at most
@@ -49,10 +49,10 @@ void scene_close(struct scene *s);
 /* Everything resident, so that selection is the only variable. */
 void load_everything(struct scene *s);
 
-/* resident[id] for every patch (the cache's state), and the border charges of the
- * resident ones (relief_lod_border_charges() of their layers' block records, read back):
- * what relief_lod_select() takes. The array is the scene's; 0 for patches not resident. */
-const float *scene_residency(struct scene *s, uint8_t *resident);
+/* resident[id] for every patch (the cache's state), and where relief_lod_select() finds
+ * the resident ones' border charges (relief_lod_border_charges() of their layers' block
+ * records, read back once per patch and layer; held by the scene). */
+struct relief_lod_borders scene_residency(struct scene *s, uint8_t *resident);
 
 int cmp_u32(const void *a, const void *b);
 

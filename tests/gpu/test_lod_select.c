@@ -190,17 +190,17 @@ static void test_hysteresis_matches_cpu(void **state)
 	uint8_t *resident = malloc(n), *prev = calloc(n, 1), *next = malloc(n), *draw = malloc(n);
 	uint8_t *fresh_next = malloc(n), *fresh_draw = malloc(n), *zero = calloc(n, 1), *last = malloc(n);
 	uint32_t *want = malloc(4 * n), *gpu = malloc(4 * n), n_want;
-	const float *border = scene_residency(&s, resident);
+	const struct relief_lod_borders border = scene_residency(&s, resident);
 	const double at[3] = { 128480, 79200, 3000 }, dir[3] = { -0.55, -0.6, 0.58 };
 	double d = 2000;
 	struct relief_view v;
 	for (;; d *= 1.02) {
 		assert_true(d < 100000);
 		v = hysteresis_view(at, dir, d, false);
-		relief_lod_select(s.f, &v, resident, border, zero, last, draw, want, n, &n_want);
+		relief_lod_select(s.f, &v, resident, &border, zero, last, draw, want, n, &n_want);
 		v = hysteresis_view(at, dir, d * 1.1, false);
-		relief_lod_select(s.f, &v, resident, border, last, next, draw, want, n, &n_want);
-		relief_lod_select(s.f, &v, resident, border, zero, fresh_next, fresh_draw, want, n, &n_want);
+		relief_lod_select(s.f, &v, resident, &border, last, next, draw, want, n, &n_want);
+		relief_lod_select(s.f, &v, resident, &border, zero, fresh_next, fresh_draw, want, n, &n_want);
 		if (memcmp(draw, fresh_draw, n) != 0)
 			break;
 	}
@@ -227,8 +227,8 @@ static void test_hysteresis_matches_cpu(void **state)
 			assert_true(st.triangles > 0);
 		uint32_t ng = view_drawn(s.view, gpu, n);
 		qsort(gpu, ng, 4, cmp_u32);
-		uint32_t nc = relief_lod_select(s.f, &v, resident, border, prev, next, draw, want, n, &n_want);
-		relief_lod_select(s.f, &v, resident, border, zero, fresh_next, fresh_draw, want, n, &n_want);
+		uint32_t nc = relief_lod_select(s.f, &v, resident, &border, prev, next, draw, want, n, &n_want);
+		relief_lod_select(s.f, &v, resident, &border, zero, fresh_next, fresh_draw, want, n, &n_want);
 		bool same_as_fresh = memcmp(draw, fresh_draw, n) == 0;
 		print_message("frame %c, %.0f m out%s: GPU %u patches, CPU %u, %s a selection without history\n",
 		              (char)('A' + k), frames[k].dist, frames[k].away ? ", looking away" : "", ng, nc,
@@ -457,13 +457,13 @@ static void test_requests_look_ahead(void **state)
 			.fovy = 50 * M_PI / 180, .width = 320, .height = 180, .znear = 1, .zfar = 2e6, .tau = 1.0,
 		};
 		uint32_t was_resident = 0;
-		const float *border = scene_residency(&s, resident);
+		const struct relief_lod_borders border = scene_residency(&s, resident);
 		for (uint32_t id = 0; id < n; id++)
 			was_resident += resident[id];
 		struct relief_terrain_stats st;
 		assert_int_equal(relief_terrain_draw(s.terrain, s.view, &v, &s.target, frame++, NULL, &st), 0);
 		uint32_t ng = relief_terrain_view_wants(s.view, gpu, n);
-		relief_lod_select(s.f, &v, resident, border, prev, next, draw, cpu, n, &n_cpu);
+		relief_lod_select(s.f, &v, resident, &border, prev, next, draw, cpu, n, &n_cpu);
 		qsort(gpu, ng, 4, cmp_u32);
 		uint32_t finest = 0;
 		for (uint32_t k = 0; k < ng; k++) {
@@ -527,9 +527,7 @@ static void test_partial_tree_matches_cpu(void **state)
 	memset(resident, 1, n);
 	/* Which patches to leave out: from the tree the view draws with everything there
 	 * (nothing is yet, so no border charges: the choice does not need them). */
-	float *no_charges = calloc((size_t)n * RELIEF_LOD_BORDER_FLOATS, sizeof(float));
-	relief_lod_select(s.f, &v, resident, no_charges, prev, next, draw, want, n, &n_want);
-	free(no_charges);
+	relief_lod_select(s.f, &v, resident, NULL, prev, next, draw, want, n, &n_want);
 	/* Missing: for l = 4, 3, 2 the level-l ancestor of a patch drawn at level l or finer,
 	 * each under another level-1 patch, so that every ancestor of a missing patch's parent
 	 * has all of its children there. */
@@ -561,10 +559,10 @@ static void test_partial_tree_matches_cpu(void **state)
 	}
 	for (uint32_t id = 0; id < n; id++)
 		assert_int_equal(relief_patch_cache_state(s.cache, id) == RELIEF_PATCH_RESIDENT, resident[id]);
-	const float *border = scene_residency(&s, resident);
+	const struct relief_lod_borders border = scene_residency(&s, resident);
 	/* The CPU reference's own semantics first: each missing patch's parent drawn, none of
 	 * its siblings. */
-	relief_lod_select(s.f, &v, resident, border, prev, next, draw, want, n, &n_want);
+	relief_lod_select(s.f, &v, resident, &border, prev, next, draw, want, n, &n_want);
 	for (uint32_t k = 0; k < n_missing; k++) {
 		uint32_t l, px, py;
 		assert_true(relief_patch_coords(&s.f->layout, missing[k], &l, &px, &py));
