@@ -173,9 +173,9 @@ struct relief_lod_borders {
 
 /* The selection of one frame, CPU reference. `resident[id]` says whether patch id can be
  * drawn (resident in the cache), and `border` gives resident patches' border charges
- * (relief_lod_borders), unless the view leaves its transition strips unbounded
- * (loose_transitions: no border rule, as with `border` NULL, which the GPU's selection
- * does not match); `split_prev` / `split_next` are the view's hysteresis bits
+ * (relief_lod_borders; not asked when the view leaves its transition strips unbounded,
+ * loose_transitions, whose selection has no border rule on the GPU either; NULL leaves the
+ * rule out for any view, which the GPU's selection then does not match); `split_prev` / `split_next` are the view's hysteresis bits
  * (one byte per patch; next is written for every patch: 0 for a patch the selection does
  * not visit, one with an ancestor outside the frustum or not wanting to split, as the
  * GPU's selection only visits the others). Fills `draw[id]` (1 = draw) and

@@ -27,12 +27,14 @@ vec4 block_eps_in(int layer, ivec2 bl, uint blocks)
 // What an edge of block bl at level d = 1..4 must keep within tau when the tessellator's
 // strips are bounded (terrain_factors.glsl, edge_eps_at()): eps_d, or the charge of a strip
 // along edge `edge` (0 west, 1 north, 2 east, 3 south) against any finer interior if
-// larger, non-decreasing. lod_force.comp compares a border's with tau too.
+// larger, non-decreasing; `eps` is the block's own (block_eps_in()). lod_force.comp
+// compares a border's with tau too.
 vec4 edge_charges_in(int layer, ivec2 bl, uint edge, uint blocks, vec4 eps)
 {
 	uint i = block_strip_index(layer, bl, edge, blocks);
 	return running_max(max(eps, vec4(block_err(i), block_err(i + 1u), block_err(i + 2u), block_err(i + 3u))));
 }
+
 // The instances (binding 4, written by lod_select.comp) as RGBA32_UINT texels, four an
 // instance in memory order (instance_unpack()): for the passes that read them per lane, as
 // the block records above.
