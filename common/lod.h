@@ -175,11 +175,11 @@ struct relief_lod_borders {
  * drawn (resident in the cache), and `border` gives resident patches' border charges
  * (relief_lod_borders; not asked when the view leaves its transition strips unbounded,
  * loose_transitions, whose selection has no border rule on the GPU either; NULL leaves the
- * rule out for any view, which the GPU's selection then does not match); `split_prev` / `split_next` are the view's hysteresis bits
- * (one byte per patch; next is written for every patch: 0 for a patch the selection does
- * not visit, one with an ancestor outside the frustum or not wanting to split, as the
- * GPU's selection only visits the others). Fills `draw[id]` (1 = draw) and
- * returns the number drawn. Patches outside the frustum are neither drawn nor split. `want`
+ * rule out for any view, which the GPU's selection then does not match); `split_prev` /
+ * `split_next` are the view's hysteresis bits (one byte per patch; next is written for
+ * every patch: 0 for a patch the selection does not visit, one with an ancestor outside
+ * the frustum or not wanting to split, as the GPU's selection only visits the others).
+ * Fills `draw[id]` (1 = draw) and returns the number drawn. Patches outside the frustum are neither drawn nor split. `want`
  * receives up to want_cap missing patches (not the root) of the tree the view draws once
  * everything has arrived: every ancestor in the frustum and wanting to split, resident or
  * not, so a cold cache learns the whole chain down to the finest patch in one frame. In id

@@ -207,8 +207,9 @@ static uint32_t background_pixels(const float *depth, uint32_t w, uint32_t h)
 /* Level jumps wider than a patch's blocks: a flat sea (x up to the middle column) beside
  * land (a 5 m per sample rise, rough from 32 samples inland with up to 200 m of per-sample
  * noise: coast_dem(N, COAST_BAND)), 1025 x 1025 samples 30 m apart, packed with 65-sample
- * patches (4 x 4 blocks, five levels). The sea's level-1 patches stay whole while the land beside them is drawn
- * 3 levels finer, so several finer patches share one block edge of the sea. Skirts off,
+ * patches (4 x 4 blocks, five levels). The sea's level-1 patches stay whole while the land
+ * beside them is drawn 3 levels finer, so several finer patches share one block edge of
+ * the sea. Skirts off,
  * the views of a 100-view sweep along the coast (tau 1, 4, 8, 16) that showed a single-
  * pixel hole while a border edge's segments were raised only for a finer patch covering
  * the whole block edge (up to log2(blocks) levels finer; finer_across() in
@@ -265,8 +266,8 @@ static void test_deep_level_jumps(void **state)
  * (relief_lod_select()) on each. Negative control, run when the test was written: without
  * the pre-pass each of the five frames shows one background pixel and draws a jump of 5
  * (15 of the sweep's 300 frames); run again on the coast smooth at the shore (fortieth
- * December 2026 session), without the five-level rule view 9 shows one and a jump of 5. Each frame's mesh is also checked for seams
- * (render_seamless()): no T-junction (the control, run when that was added: view 9
+ * December 2026 session), without the five-level rule view 9 shows one and a jump of 5.
+ * Each frame's mesh is also checked for seams (render_seamless()): no T-junction (the control, run when that was added: view 9
  * without the pre-pass, 4). */
 static void test_level_jumps_of_five(void **state)
 {
