@@ -199,17 +199,15 @@ static float box_error(const struct relief_box *b, float err, float kappa)
 	return d > 0.0f ? err * kappa / d : INFINITY;
 }
 
-/* Patch id (level l, with an index entry) wants to split by its own error, with its
- * hysteresis bit (forced splits aside). */
-static bool own_wish(const struct force_ctx *c, uint32_t l, uint32_t id)
+/* Patch id (level l, with an index entry, its box `box`) wants to split by its own error,
+ * with its hysteresis bit (forced splits aside). */
+static bool own_wish(const struct force_ctx *c, uint32_t l, uint32_t id, const struct relief_box *box)
 {
 	if (l + 1 >= c->f->layout.levels)
 		return false;
-	struct relief_box box;
-	relief_patch_box(c->f, c->o, id, &box);
 	struct relief_patch_record rec;
 	relief_file_record(c->f, id, &rec);
-	return wants_split(box_error(&box, rec.draw_error, c->kappa), c->tau, c->split_prev[id]);
+	return wants_split(box_error(box, rec.draw_error, c->kappa), c->tau, c->split_prev[id]);
 }
 
 /* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit, or is forced
@@ -222,20 +220,23 @@ static bool raw_wish(const struct force_ctx *c, uint32_t l, uint32_t x, uint32_t
 	uint32_t id = relief_patch_id(l, x, y);
 	if (relief_index_entry(&c->f->hdr, id) == UINT32_MAX)
 		return false;
-	return (c->forced[id] & 2) || own_wish(c, l, id);
+	if (c->forced[id] & 2)
+		return true;
+	struct relief_box box;
+	relief_patch_box(c->f, c->o, id, &box);
+	return own_wish(c, l, id, &box);
 }
 
 /* Whether resident patch id's border on `side`, drawn at level k, projects beyond tau
- * (the whole of it) from its box. */
-static bool border_beyond(const struct force_ctx *c, uint32_t id, uint32_t side, uint32_t k)
+ * (the whole of it) from its box `box`. */
+static bool border_beyond(const struct force_ctx *c, uint32_t id, const struct relief_box *box, uint32_t side,
+                          uint32_t k)
 {
 	const float *charges = c->border->charges(c->border->data, id);
 	float charge = charges ? charges[4 * side + k - 1] : 0.0f;
 	if (!(charge > 0.0f))
 		return false; /* a border drawn exactly at any level: nothing to project */
-	struct relief_box box;
-	relief_patch_box(c->f, c->o, id, &box);
-	return box_error(&box, charge, c->kappa) > c->tau / (float)RELIEF_LOD_COARSE_SHARE;
+	return box_error(box, charge, c->kappa) > c->tau / (float)RELIEF_LOD_COARSE_SHARE;
 }
 
 /* shaders/lod_force.comp's twin: whether patch id, of level l in 1 .. L - 2, must split
@@ -268,9 +269,12 @@ static bool forced_split(const struct force_ctx *c, uint32_t id)
 				uint32_t cid = relief_patch_id(l + k, cx, cy);
 				if (relief_index_entry(&c->f->hdr, cid) == UINT32_MAX)
 					continue;
-				if (c->border && c->resident[cid] && !own_wish(c, l + k, cid) && border_beyond(c, cid, s ^ 1u, k))
+				struct relief_box box;
+				relief_patch_box(c->f, c->o, cid, &box);
+				const bool own = own_wish(c, l + k, cid, &box);
+				if (c->border && c->resident[cid] && !own && border_beyond(c, cid, &box, s ^ 1u, k))
 					return true;
-				if (raw_wish(c, l + k, cx, cy))
+				if ((c->forced[cid] & 2) || own)
 					next |= 1u << i;
 			}
 			chain = next;

@@ -47,36 +47,29 @@ layout(std430, binding = 2) coherent buffer SplitPrev { uint split_prev[]; };
 
 shared uint forced_now;
 
-// Patch (l, x, y) wants to split by the usual rule, with its split state's bits `bits` of
-// 3 (bit 0 hysteresis, bit 1 forced): all for a chain, bit 0 alone for its own wish.
-bool wants_with(uint l, uint x, uint y, uint bits)
+// Patch (l, x, y) wants to split by the usual rule (with its hysteresis bit) or is forced.
+bool wants(uint l, uint x, uint y)
 {
 	uint e = entry_at(l, ivec2(x, y));
 	if (e == NO_ENTRY)
 		return false;
 	vec3 bmin, bmax;
 	box(l, x, y, e, bmin, bmax);
-	return wants_split_by(l, e, distance_to(bmin, bmax), split_prev[e] & bits);
+	return wants_split_by(l, e, distance_to(bmin, bmax), split_prev[e]);
 }
 
-// ... or is forced.
-bool wants(uint l, uint x, uint y) { return wants_with(l, x, y, 3u); }
-
-// The border charge at level k of the patch at `c` of level l (entry e, resident in
-// `layer`) along its side `side`, projected from its box: pixels, as the selection's error.
-float border_px(uint l, ivec2 c, uint e, int layer, uint side, uint k)
+// The border charge at level k of the patch resident in `layer` along its side `side`,
+// projected from its box at distance d: pixels, as the selection's error.
+float border_px(int layer, uint side, uint k, float d)
 {
-	uint blocks = (pc.P - 1u) / BLOCK_CELLS, last = blocks - 1u, edge = side == 0u ? 1u : side == 1u ? 3u : side == 2u ? 0u : 2u;
+	uint blocks = (pc.P - 1u) / BLOCK_CELLS, edge = edge_of_side(side);
 	float charge = 0.0;
 	for (uint a = 0u; a < blocks; a++) {
-		ivec2 bl = ivec2(side == 0u || side == 1u ? a : side == 2u ? 0u : last, side == 2u || side == 3u ? a : side == 0u ? 0u : last);
+		ivec2 bl = border_block_in(side, int(a), blocks);
 		charge = max(charge, edge_charges_in(layer, bl, edge, blocks, block_eps_in(layer, bl, blocks))[k - 1u]);
 	}
 	if (!(charge > 0.0))
 		return 0.0; // a border drawn exactly at any level: nothing to project
-	vec3 bmin, bmax;
-	box(l, uint(c.x), uint(c.y), e, bmin, bmax);
-	float d = distance_to(bmin, bmax);
 	precise float px = d > 0.0 ? charge * pc.kappa / d : 1.0 / 0.0;
 	return px;
 }
@@ -111,11 +104,15 @@ bool chain_beside(uint e)
 				uint ce = entry_at(l + k, c);
 				if (ce == NO_ENTRY)
 					continue;
+				vec3 bmin, bmax;
+				box(l + k, uint(c.x), uint(c.y), ce, bmin, bmax);
+				float d = distance_to(bmin, bmax);
 				int layer = layer_at(ce);
-				if (border_rule && layer >= 0 && !wants_with(l + k, uint(c.x), uint(c.y), 1u) &&
-				    border_px(l + k, c, ce, layer, s ^ 1u, k) > tau)
+				// Its own wish (bit 0 alone) for the border rule, the chain's with bit 1.
+				if (border_rule && layer >= 0 && !wants_split_by(l + k, ce, d, split_prev[ce] & 1u) &&
+				    border_px(layer, s ^ 1u, k, d) > tau)
 					return true;
-				if (wants(l + k, uint(c.x), uint(c.y)))
+				if (wants_split_by(l + k, ce, d, split_prev[ce]))
 					next |= 1u << i;
 			}
 			chain = next;

@@ -41,6 +41,18 @@ ivec2 facing_cell(ivec2 q, int m, uint side, int a)
 	     : side == 2u ? ivec2(q.x * m + m - 1, q.y * m + a) : ivec2(q.x * m, q.y * m + a);
 }
 
+// The block `a` blocks along the border `side` (0 north, 1 south, 2 west, 3 east; along
+// runs west to east or north to south) of a patch of `blocks` blocks a side.
+ivec2 border_block_in(uint side, int a, uint blocks)
+{
+	int last = int(blocks) - 1;
+	return side == 0u ? ivec2(a, 0) : side == 1u ? ivec2(a, last) : side == 2u ? ivec2(0, a) : ivec2(last, a);
+}
+
+// A block's edge index (0 west, 1 north, 2 east, 3 south: the outer factors' order) of
+// side `side` (0 north, 1 south, 2 west, 3 east).
+uint edge_of_side(uint side) { return side == 0u ? 1u : side == 1u ? 3u : side == 2u ? 0u : 2u; }
+
 // A drawn patch's border items (lod_borders.comp, one invocation and one record each): the
 // block edges of its 4 sides (north, south, west, east; `blocks` each), then its 4 corners.
 uint border_items(uint blocks) { return 4u * blocks + 4u; }

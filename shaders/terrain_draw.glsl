@@ -57,13 +57,8 @@ vec3 pos_of(Instance it, ivec2 m, float h)
 	return vec3(x, -y, z);
 }
 
-// The block `a` blocks along a patch's border `side` (0 north, 1 south, 2 west, 3 east;
-// along runs west to east or north to south).
-ivec2 border_block(uint side, int a)
-{
-	int last = int(pc.blocks) - 1;
-	return side == 0u ? ivec2(a, 0) : side == 1u ? ivec2(a, last) : side == 2u ? ivec2(0, a) : ivec2(last, a);
-}
+// The block `a` blocks along a patch's border `side` (border_block_in()).
+ivec2 border_block(uint side, int a) { return border_block_in(side, a, pc.blocks); }
 
 // The position, at the patch's level, of its neighbour across border `side` (0 north,
 // 1 south, 2 west, 3 east); outside [0, 2^level) beyond the terrain's edge.

@@ -34,8 +34,7 @@ vec4 block_eps(Instance it, int bx, int by) { return block_eps_at(it.layer, ivec
 // D what patch_strips.comp computed from the samples; along an edge coarser than the
 // interior, also within eps_i + D_i, i the interior's level, and the decode stored the
 // smaller (the edge's charge). Edge `edge`: 0 west, 1 north, 2 east, 3 south (the outer
-// factors' order); side (0 north, 1 south, 2 west, 3 east) to edge:
-uint edge_of_side(uint side) { return side == 0u ? 1u : side == 1u ? 3u : side == 2u ? 0u : 2u; }
+// factors' order; edge_of_side(), terrain_common.glsl).
 
 // Whether the strips are bounded: unless the view asks otherwise (MODE_LOOSE_STRIPS).
 bool strips_bounded() { return (pc.mode & MODE_LOOSE_STRIPS) == 0u; }
