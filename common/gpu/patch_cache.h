@@ -142,7 +142,10 @@ void relief_patch_cache_release(struct relief_patch_cache *c);
  * Returns the number of patches that became resident, or a negative errno (-EBUSY while
  * a frame is in flight, relief_patch_cache_hold()). */
 int relief_patch_cache_update(struct relief_patch_cache *c, uint64_t frame);
-/* Blocks until nothing is queued, decoding or in flight (tests, benchmarks). */
+/* Blocks until nothing is queued, decoding or in flight (tests, benchmarks). -ENOSPC when
+ * decoded patches wait for a layer that nothing frees at this frame: every layer holds a
+ * patch used within keep_frames of it (a view that wants more patches than the budget
+ * holds). */
 int relief_patch_cache_flush(struct relief_patch_cache *c, uint64_t frame);
 
 enum relief_patch_state relief_patch_cache_state(const struct relief_patch_cache *c, uint32_t id);

@@ -30,10 +30,17 @@ struct scene {
 	 * hold while it stays there. */
 	float *layer_border;
 	uint32_t *layer_owner;
+	/* render_with() numbers its frames from 100 + frame_base (0 unless the test sets it). A
+	 * test that draws many far-apart views one after another raises it for each, so that
+	 * the cache sees time go on and may evict what the views before used (it keeps what
+	 * was used within its keep_frames of the current frame). */
+	uint64_t frame_base;
 };
 
-/* A DEM packed at tolerance tol and moved by (dx, dy), in a 64 MiB cache of at most
- * max_layers layers (0: as many as the budget holds), a w x h target and one view. */
+/* A DEM packed at tolerance tol and moved by (dx, dy), in a 128 MiB cache of at most
+ * max_layers layers (0: as many as the budget holds), a w x h target and one view. (64 MiB
+ * until December 2026: 1,460 layers of 65-sample patches, fewer than some views of
+ * test_lod_sweep's 4097 coast want; 128 MiB gives lavapipe's most, 2,048.) */
 void scene_open_at(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h,
                    double dx, double dy, uint32_t max_layers);
 void scene_open(struct scene *s, struct relief_vk *vk, enum test_dem d, double tol, uint32_t w, uint32_t h);
@@ -56,8 +63,14 @@ struct relief_lod_borders scene_residency(struct scene *s, uint8_t *resident);
 
 int cmp_u32(const void *a, const void *b);
 
-/* Renders v and copies out depth (Vulkan [0, 1]). Converges: draws until nothing is asked. */
+/* Renders v and copies out depth (Vulkan [0, 1]). Converges: draws until nothing is asked
+ * (at most 40 frames, from frame 100 + s->frame_base). */
 void render_with(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts, float *depth,
+                 struct relief_terrain_stats *st);
+/* The same, but false where the view wants more patches than the cache's layers hold
+ * (all in use by it, relief_patch_cache_flush() -ENOSPC): it is then drawn with parents
+ * for the patches that have no layer, not at its own level of detail. */
+bool render_fits(struct scene *s, struct relief_view *v, const struct relief_draw_options *opts, float *depth,
                  struct relief_terrain_stats *st);
 void render(struct scene *s, struct relief_view *v, float *depth, struct relief_terrain_stats *st);
 
