@@ -293,8 +293,8 @@ static bool forced_split(const struct force_ctx *c, uint32_t id)
 static void force_splits(const struct force_ctx *c)
 {
 	const uint32_t L = c->f->layout.levels;
-	if (L < 3)
-		return;
+	if (L < 3 || (L < 7 && !c->border))
+		return; /* neither rule can force anything (the GPU leaves the pass out) */
 	const uint32_t end = relief_level_first_id(L - 1);
 	for (bool changed = true; changed;) {
 		changed = false;

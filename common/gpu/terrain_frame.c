@@ -249,14 +249,14 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	VkDescriptorSet set = v->set[v->parity];
 	vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->select_layout, 0, 1, &set, 0, NULL);
 	vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(sp), &sp);
-	if (sp.levels >= 3) {
-		/* Forced splits (lod_force.comp): levels 1 .. L - 2, where a patch could otherwise
-		 * be drawn beside one 5 levels finer or beside a finer border that its vertices
-		 * cannot draw within tau; one workgroup sweeps them to a fixed point. Nothing for
-		 * shallower trees. The border rule is relief's own: the baselines' selections
-		 * (whose tau holds no coarse share) and views that leave the transition strips
-		 * unbounded do without it. */
-		const uint32_t border_rule = opts->fine == RELIEF_FINE_ERRORS && !view->loose_transitions;
+	/* Forced splits (lod_force.comp): levels 1 .. L - 2, where a patch could otherwise be
+	 * drawn beside one 5 levels finer (trees of 7 levels or more) or beside a finer border
+	 * that its vertices cannot draw within tau (3 or more); one workgroup sweeps them to a
+	 * fixed point. The border rule is relief's own: the baselines' selections (whose tau
+	 * holds no coarse share) and views that leave the transition strips unbounded do
+	 * without it, so where neither rule can apply the pass is left out. */
+	const uint32_t border_rule = opts->fine == RELIEF_FINE_ERRORS && !view->loose_transitions;
+	if (sp.levels >= 7 || (sp.levels >= 3 && border_rule)) {
 		vkCmdPushConstants(cmd, t->prog->select_layout, VK_SHADER_STAGE_COMPUTE_BIT, offsetof(struct select_push, level),
 		                   sizeof(border_rule), &border_rule);
 		vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, t->prog->force);

@@ -268,7 +268,10 @@ static void test_deep_level_jumps(void **state)
  * (15 of the sweep's 300 frames); run again on the coast smooth at the shore (fortieth
  * December 2026 session), without the five-level rule view 9 shows one and a jump of 5.
  * Each frame's mesh is also checked for seams (render_seamless()): no T-junction (the control, run when that was added: view 9
- * without the pre-pass, 4). */
+ * without the pre-pass, 4). Chunked LOD draws each view with its jumps at most 4 too: the
+ * pre-pass runs for the baselines on trees of 7 levels or more, without the border rule
+ * (control, forty-first December 2026 session: the pass left out for the baselines,
+ * view 9 draws a jump of 5). */
 static void test_level_jumps_of_five(void **state)
 {
 	enum { N = 4097 };
@@ -280,6 +283,7 @@ static void test_level_jumps_of_five(void **state)
 	uint32_t *ids = malloc(4 * s.f->hdr.patch_count);
 	float *depth = malloc(sizeof(float) * BW * BH);
 	const struct relief_draw_options bare = { .fine = RELIEF_FINE_ERRORS, .no_skirts = true };
+	const struct relief_draw_options chunked = { .fine = RELIEF_FINE_FULL, .no_skirts = true };
 	const uint32_t sweep[] = { 9, 12, 83, 88, 95 };
 	for (size_t i = 0; i < sizeof(sweep) / sizeof(sweep[0]); i++) {
 		struct pose p = steep_sweep_pose(N, sweep[i]);
@@ -297,6 +301,12 @@ static void test_level_jumps_of_five(void **state)
 		assert_true(jump >= 3 && jump <= 4);
 		render_seamless(&s, &v, &bare); /* no T-junction where the pre-pass split */
 		fresh_view_matches_cpu(&s, &v, 200 + i, &bare);
+		/* Chunked LOD's selection has the five-level rule too (not the border rule). */
+		render_with(&s, &v, &chunked, depth, &st);
+		drawn_levels(&s, ids, &nd);
+		jump = max_level_jump(&s, ids, nd);
+		print_message("  chunked LOD: %u patches, largest level jump %u\n", nd, jump);
+		assert_true(jump <= 4);
 	}
 	free(ids);
 	free(depth);
