@@ -16,13 +16,15 @@ layout(location = 10) flat in uvec4 in_quad[];
 layout(location = 1) flat out float out_q2;
 layout(location = 2) out vec2 out_s;
 layout(location = 3) flat out int out_layer;
-// Binding 23 (terrain_internal.h): triangles drawn, capacity, then 4 records per
-// triangle: its 3 vertices (grid column, row relative to the camera's cell, height bits,
-// patch id) and its quad (terrain_tese.glsl's out_quad: factors, where the quad is).
-layout(std430, binding = 23) buffer Mesh { uint mesh_count; uint mesh_cap; uint mesh_pad[2]; uvec4 mesh[]; };
+// Binding 23 (terrain_internal.h, struct mesh_header): triangles stored, capacity, the
+// frame's parts and part (relief_draw_options.mesh_parts: only the triangles of patches
+// whose id % parts is part are stored and counted; parts is at least 1), then 4 records
+// per triangle: its 3 vertices (grid column, row relative to the camera's cell, height
+// bits, patch id) and its quad (terrain_tese.glsl's out_quad: factors, where the quad is).
+layout(std430, binding = 23) buffer Mesh { uint mesh_count; uint mesh_cap; uint mesh_parts; uint mesh_part; uvec4 mesh[]; };
 void main()
 {
-	uint k = atomicAdd(mesh_count, 1u);
+	uint k = in_id[0] % mesh_parts == mesh_part ? atomicAdd(mesh_count, 1u) : 0xffffffffu;
 	if (k < mesh_cap)
 		mesh[4u * k + 3u] = in_quad[0];
 	for (int i = 0; i < 3; i++) {

@@ -106,6 +106,11 @@ struct relief_draw_options {
 	/* Store the frame's triangles in the view's mesh capture (relief_terrain_view_mesh_enable()
 	 * first; not with wire): -EINVAL otherwise. */
 	bool mesh;
+	/* With mesh and mesh_parts > 1: store only the triangles of the patches whose id %
+	 * mesh_parts is mesh_part (< mesh_parts, or -EINVAL), and count only those; the frame is
+	 * drawn whole all the same. A frame of more triangles than the capture holds is then
+	 * captured in parts, drawn again for each (a converged view draws the same frame). */
+	uint32_t mesh_parts, mesh_part;
 	/* Choose the level of detail (selection, draw records, factors, requests) and draw
 	 * nothing: `target` is not touched and may be NULL, the statistics count no triangles
 	 * or quads. For carrying a view's hysteresis along frames nobody looks at (`relief bench
@@ -162,10 +167,11 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
  * triangles). */
 uint32_t relief_terrain_mesh_limit(const struct relief_vk *vk);
 /* The triangles of the view's last frame drawn with relief_draw_options.mesh (3 vertices
- * each in `out`, in drawing order, and, unless `quads` is NULL, the quad each was drawn in),
- * up to cap of them: returns the number that frame drew, which may be more than cap or
- * than the room enabled (only those that fit were kept); -ENODATA if no such frame was
- * drawn since the capture was enabled, -EBUSY while a frame is in flight. */
+ * each in `out`, in drawing order, and, unless `quads` is NULL, the quad each was drawn
+ * in; with mesh_parts, its part's), up to cap of them: returns the number that frame drew
+ * (of its part), which may be more than cap or than the room enabled (only those that fit
+ * were kept); -ENODATA if no such frame was drawn since the capture was enabled, -EBUSY
+ * while a frame is in flight. */
 int64_t relief_terrain_view_mesh(const struct relief_terrain_view *v, struct relief_mesh_vertex *out,
                                  struct relief_mesh_quad *quads, uint32_t cap);
 /* The last frame's requests (patch ids, unordered; at most the frame's cap), for tests;

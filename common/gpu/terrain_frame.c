@@ -124,6 +124,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	const struct relief_view *lod = opts->lod_view ? opts->lod_view : view;
 	if (relief_view_check(view, &why) < 0 || relief_view_check(lod, &why) < 0 || lod->width != view->width ||
 	    lod->height != view->height || (opts->mesh && (!v->mesh_cap || wire)) ||
+	    (opts->mesh_parts > 1 && opts->mesh_part >= opts->mesh_parts) ||
 	    (opts->lod_only ? wire || opts->mesh : !target))
 		return -EINVAL;
 	struct relief_vk *vk = t->vk;
@@ -223,7 +224,7 @@ int relief_terrain_draw_submit(struct relief_terrain *t, struct relief_terrain_v
 	vkCmdFillBuffer(cmd, v->cmds.buffer, 0, VK_WHOLE_SIZE, 0);
 	vkCmdFillBuffer(cmd, v->drawn.buffer, 0, VK_WHOLE_SIZE, 0);
 	if (opts->mesh)
-		mesh_frame_begin(v, cmd, &o);
+		mesh_frame_begin(v, cmd, &o, opts->mesh_parts, opts->mesh_part);
 	/* The selection visits the patches on the view's tree only and writes their split
 	 * state: every other patch's is 0 (not split). The frontiers (levels SELECT_TOP_LEVELS
 	 * and deeper; the first dispatch visits the levels above without one) start empty:

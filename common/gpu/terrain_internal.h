@@ -285,7 +285,8 @@ struct relief_terrain_view {
  * its quad (outer factors a byte each, inner factor | log2 of the patch's scale << 8, the
  * grid column and row of its first corner relative to the camera's cell). */
 struct mesh_header {
-	uint32_t count, cap, pad[2];
+	uint32_t count, cap;
+	uint32_t parts, part; /* relief_draw_options.mesh_parts and mesh_part, set each frame */
 };
 /* terrain.c: makes t->draw[morph]'s pipelines that are missing: fill and cull, wire if
  * `wire` (and the device has fill_mode_non_solid), the mesh capture's twins if `mesh`. 0
@@ -300,7 +301,8 @@ int terrain_lod_pipelines_create(struct relief_terrain *t, enum relief_fine_lod 
  * relief_draw_options.mesh, each kind's twin: with and without the seal code), and such a
  * frame's part before and after its draws. */
 struct draw_pipelines mesh_pipelines(const struct draw_pipelines *d, bool mesh);
-void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o);
+void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o,
+                      uint32_t parts, uint32_t part);
 void mesh_frame_end(VkCommandBuffer cmd);
 
 /* One global memory barrier between two stage masks. */

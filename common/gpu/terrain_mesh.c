@@ -2,6 +2,7 @@
  * draw pipelines with a geometry shader that stores every triangle (terrain_mesh.tese,
  * terrain_mesh.geom), a buffer per view the CPU reads, and the frame's part in it. */
 #include <errno.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "pipeline.h"
@@ -40,7 +41,7 @@ int relief_terrain_view_mesh_enable(struct relief_terrain_view *v, uint32_t max_
 	v->mesh = b;
 	v->mesh_cap = max_triangles;
 	v->mesh_frames = 0;
-	*(struct mesh_header *)v->mesh.map = (struct mesh_header){ .cap = max_triangles };
+	*(struct mesh_header *)v->mesh.map = (struct mesh_header){ .cap = max_triangles, .parts = 1 };
 	VkDescriptorBufferInfo bi = { v->mesh.buffer, 0, VK_WHOLE_SIZE };
 	VkWriteDescriptorSet w[2];
 	for (int s = 0; s < 2; s++)
@@ -68,13 +69,16 @@ struct draw_pipelines mesh_pipelines(const struct draw_pipelines *d, bool mesh)
 	return p;
 }
 
-void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o)
+void mesh_frame_begin(struct relief_terrain_view *v, VkCommandBuffer cmd, const struct relief_view_origin *o,
+                      uint32_t parts, uint32_t part)
 {
 	/* The count starts at 0 (after the last frame's geometry shader, when frames share a
-	 * command buffer); the geometry shader's atomics follow the fill. */
+	 * command buffer), the part is this frame's; the geometry shader's atomics follow. */
 	barrier(cmd, VK_PIPELINE_STAGE_GEOMETRY_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
 	        VK_ACCESS_TRANSFER_WRITE_BIT);
 	vkCmdFillBuffer(cmd, v->mesh.buffer, 0, sizeof(uint32_t), 0);
+	vkCmdFillBuffer(cmd, v->mesh.buffer, offsetof(struct mesh_header, parts), sizeof(uint32_t), parts > 1 ? parts : 1);
+	vkCmdFillBuffer(cmd, v->mesh.buffer, offsetof(struct mesh_header, part), sizeof(uint32_t), parts > 1 ? part : 0);
 	barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_GEOMETRY_SHADER_BIT,
 	        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 	v->mesh_cell[0] = o->cell_x;

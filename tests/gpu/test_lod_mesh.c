@@ -42,6 +42,12 @@ static uint64_t mesh_measure(struct bound_scene *b, struct relief_view *v, const
 	return (uint64_t)n;
 }
 
+/* Orders captured triangles (3 vertices each) by their bytes. */
+static int cmp_triangle(const void *a, const void *b)
+{
+	return memcmp(a, b, 3 * sizeof(struct relief_mesh_vertex));
+}
+
 static void print_mesh_error(const char *what, size_t pose, double tau, bool morph, uint64_t n,
                              const struct relief_mesh_error *e)
 {
@@ -294,6 +300,30 @@ static void test_mesh_capture_and_measure(void **state)
 	uint64_t n = mesh_measure(&b, &v, NULL, tri, &e);
 	assert_memory_equal(b.ref, b.lod, sizeof(float) * px);
 	assert_memory_equal(rgba, b.s.target.color_readback.map, 4 * px);
+	/* The same frame captured in 3 parts (relief_draw_options.mesh_parts): each part holds
+	 * the triangles of the patches whose id % 3 is the part, the parts together the whole
+	 * frame's triangles, and the picture does not change. */
+	struct relief_mesh_vertex *parts = malloc(sizeof(*parts) * 3 * (size_t)n);
+	uint64_t at = 0;
+	for (uint32_t part = 0; part < 3; part++) {
+		const struct relief_draw_options op = { .fine = RELIEF_FINE_ERRORS, .mesh = true, .mesh_parts = 3,
+			                                .mesh_part = part };
+		assert_int_equal(relief_terrain_draw(b.s.terrain, b.s.view, &v, &b.s.target, 300 + part, &op, &st), 0);
+		assert_memory_equal(b.ref, b.s.target.depth_readback.map, sizeof(float) * px);
+		const int64_t k = relief_terrain_view_mesh(b.s.view, parts + 3 * at, NULL, (uint32_t)(n - at));
+		assert_true(k > 0 && at + (uint64_t)k <= n);
+		for (uint64_t j = 3 * at; j < 3 * (at + (uint64_t)k); j++)
+			assert_int_equal(parts[j].patch % 3, part);
+		at += (uint64_t)k;
+	}
+	assert_int_equal(at, n);
+	qsort(tri, n, 3 * sizeof(*tri), cmp_triangle);
+	qsort(parts, n, 3 * sizeof(*parts), cmp_triangle);
+	assert_memory_equal(tri, parts, 3 * sizeof(*tri) * n);
+	free(parts);
+	const struct relief_draw_options no_part = { .fine = RELIEF_FINE_ERRORS, .mesh = true, .mesh_parts = 3,
+		                                     .mesh_part = 3 };
+	assert_int_equal(relief_terrain_draw(b.s.terrain, b.s.view, &v, &b.s.target, 303, &no_part, &st), -EINVAL);
 	/* A wireframe frame cannot be captured, nor can a view that did not enable it. */
 	const struct relief_draw_options wire = { .fine = RELIEF_FINE_ERRORS, .wire = true, .mesh = true };
 	assert_int_equal(relief_terrain_draw(b.s.terrain, b.s.view, &v, &b.s.target, 200, &wire, &st), -EINVAL);
