@@ -194,23 +194,28 @@ static void test_sweep_dems(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Sweeps a DEM of the test's own packed with `patch`-sample patches (and finishes it);
+ * returns the tree's levels. */
+static uint32_t sweep_dem(struct relief_dem *dem, uint32_t patch, const char *name)
+{
+	struct bound_scene b;
+	bound_open_dem_patch(&b, vk, dem, patch);
+	relief_dem_finish(dem);
+	const uint32_t levels = b.s.f->hdr.levels;
+	sweep(&b, name, sweep_views());
+	bound_close(&b);
+	return levels;
+}
+
 static void test_sweep_coasts_and_cliffs(void **state)
 {
 	const int sizes[] = { 1025, 2049 }, bands[] = { 0, COAST_BAND }; /* rough at the shore, smooth there */
 	for (int k = 0; k < 2; k++) {
 		struct relief_dem dem = coast_dem(sizes[k], bands[k]);
-		struct bound_scene b;
-		bound_open_dem_patch(&b, vk, &dem, 65);
-		relief_dem_finish(&dem);
-		sweep(&b, k ? "coast 2049" : "coast 1025", sweep_views());
-		bound_close(&b);
+		sweep_dem(&dem, 65, k ? "coast 2049" : "coast 1025");
 	}
 	struct relief_dem dem = cliffs_dem();
-	struct bound_scene b;
-	bound_open_dem(&b, vk, &dem);
-	relief_dem_finish(&dem);
-	sweep(&b, "cliffs", sweep_views());
-	bound_close(&b);
+	sweep_dem(&dem, 129, "cliffs");
 	gpu_test_assert_clean(vk);
 }
 
@@ -241,21 +246,14 @@ static struct relief_dem holes_dem(void)
 static void test_sweep_hard_terrains(void **state)
 {
 	struct relief_dem dem = holes_dem();
+	sweep_dem(&dem, 129, "Mont Blanc with holes");
 	struct bound_scene b;
-	bound_open_dem(&b, vk, &dem);
-	relief_dem_finish(&dem);
-	sweep(&b, "Mont Blanc with holes", sweep_views());
-	bound_close(&b);
 	scene_open_at(&b.s, vk, DEM_PUGET, 1.0, BW, BH, 4.0e6, 5.5e6, 0);
 	bound_buffers(&b);
 	sweep(&b, "Puget Sound at (4000 km, 5500 km)", sweep_views());
 	bound_close(&b);
 	dem = coast_dem(4097, 0);
-	bound_open_dem_patch(&b, vk, &dem, 65);
-	relief_dem_finish(&dem);
-	assert_int_equal(b.s.f->hdr.levels, 7);
-	sweep(&b, "coast 4097", sweep_views());
-	bound_close(&b);
+	assert_int_equal(sweep_dem(&dem, 65, "coast 4097"), 7);
 	gpu_test_assert_clean(vk);
 }
 
