@@ -21,7 +21,13 @@ layout(location = 3) flat out int out_layer;
 // whose id % parts is part are stored and counted; parts is at least 1), then 4 records
 // per triangle: its 3 vertices (grid column, row relative to the camera's cell, height
 // bits, patch id) and its quad (terrain_tese.glsl's out_quad: factors, where the quad is).
-layout(std430, binding = 23) buffer Mesh { uint mesh_count; uint mesh_cap; uint mesh_parts; uint mesh_part; uvec4 mesh[]; };
+layout(std430, binding = 23) buffer Mesh {
+	uint mesh_count;
+	uint mesh_cap;
+	uint mesh_parts;
+	uint mesh_part;
+	uvec4 mesh[];
+};
 void main()
 {
 	uint k = in_id[0] % mesh_parts == mesh_part ? atomicAdd(mesh_count, 1u) : 0xffffffffu;

@@ -6,15 +6,15 @@
  * terrains: Mont Blanc with no-data holes inside it (holes_dem()), Puget Sound moved to
  * projected coordinates in the millions of metres, and a 4097-sample coast rough at the
  * shore, a 7-level tree (65-sample patches) where both forced-split rules apply (five
- * levels, the finer border: lod_force.comp). Eyes anywhere
- * over the raster and a tenth of it beyond, from 20 m above a height in the terrain's
- * range (so also inside mountains) to about 8 km higher, any heading, looking 2-87
- * degrees down; tau 0.5 to 30, morphed or not, skirts on or off,
- * each at random from a fixed seed, so a failure names a view that can be drawn again. A
- * frame of more triangles than one capture holds on the device is captured in parts
- * (capture_in_parts(): drawn again for each); one of more patches than the scene's cache
- * holds (render_fits()) is named and left out (at least half the views must be checked). Each view's frames are numbered after the last view's, as time goes
- * on for a cache, so that it may evict what the views before used.
+ * levels, the finer border: lod_force.comp). Eyes anywhere over the raster and a tenth
+ * of it beyond, from 20 m above a height in the terrain's range (so also inside
+ * mountains) to about 8 km higher, any heading, looking 2-87 degrees down; tau 0.5 to 30,
+ * morphed or not, skirts on or off, each at random from a fixed seed, so a failure names
+ * a view that can be drawn again. A frame of more triangles than one capture holds on the
+ * device is captured in parts (capture_in_parts(): drawn again for each); one of more
+ * patches than the scene's cache holds (render_fits()) is named and left out (at least
+ * half the views must be checked). Each view's frames are numbered after the last view's,
+ * as time goes on for a cache, so that it may evict what the views before used.
  * RELIEF_SWEEP_VIEWS sets the views per scene (default 8, about 22 s here; 12 for the
  * first six scenes until the forty-first December 2026 session). The
  * thirty-ninth December 2026 session ran 300 per scene: 1,556 frames with terrain
@@ -88,7 +88,8 @@ static struct relief_mesh_vertex *capture_in_parts(struct scene *s, const struct
 			assert_int_equal(relief_terrain_draw(s->terrain, s->view, v, &s->target, frame++, &op, &st), 0);
 			assert_int_equal(st.requests, 0);
 			assert_int_equal(st.patches, whole->patches);
-			const int64_t k = relief_terrain_view_mesh(s->view, tri + 3 * at, *quads + at, room);
+			const uint32_t cap = n - at < room ? (uint32_t)(n - at) : room; /* never past the n */
+			const int64_t k = relief_terrain_view_mesh(s->view, tri + 3 * at, *quads + at, cap);
 			assert_true(k >= 0 && at + (uint64_t)k <= n);
 			fits = (uint64_t)k <= room;
 			at += (uint64_t)k;
