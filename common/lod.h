@@ -179,11 +179,12 @@ struct relief_lod_borders {
  * `split_next` are the view's hysteresis bits (one byte per patch; next is written for
  * every patch: 0 for a patch the selection does not visit, one with an ancestor outside
  * the frustum or not wanting to split, as the GPU's selection only visits the others).
- * Fills `draw[id]` (1 = draw) and returns the number drawn. Patches outside the frustum are neither drawn nor split. `want`
- * receives up to want_cap missing patches (not the root) of the tree the view draws once
- * everything has arrived: every ancestor in the frustum and wanting to split, resident or
- * not, so a cold cache learns the whole chain down to the finest patch in one frame. In id
- * order (coarse first); `*n_want` is their count. */
+ * Fills `draw[id]` (1 = draw) and returns the number drawn. Patches outside the frustum
+ * are neither drawn nor split. `want` receives up to want_cap missing patches (not the
+ * root) of the tree the view draws once everything has arrived: every ancestor in the
+ * frustum and wanting to split, resident or not, so a cold cache learns the whole chain
+ * down to the finest patch in one frame. In id order (coarse first); `*n_want` is their
+ * count. */
 uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view *v, const uint8_t *resident,
                            const struct relief_lod_borders *border, const uint8_t *split_prev,
                            uint8_t *split_next, uint8_t *draw, uint32_t *want, uint32_t want_cap,

@@ -267,11 +267,11 @@ static void test_deep_level_jumps(void **state)
  * the pre-pass each of the five frames shows one background pixel and draws a jump of 5
  * (15 of the sweep's 300 frames); run again on the coast smooth at the shore (fortieth
  * December 2026 session), without the five-level rule view 9 shows one and a jump of 5.
- * Each frame's mesh is also checked for seams (render_seamless()): no T-junction (the control, run when that was added: view 9
- * without the pre-pass, 4). Chunked LOD draws each view with its jumps at most 4 too: the
- * pre-pass runs for the baselines on trees of 7 levels or more, without the border rule
- * (control, forty-first December 2026 session: the pass left out for the baselines,
- * view 9 draws a jump of 5). */
+ * Each frame's mesh is also checked for seams (render_seamless()): no T-junction (the
+ * control, run when that was added: view 9 without the pre-pass, 4). Chunked LOD draws
+ * each view with its jumps at most 4 too: the pre-pass runs for the baselines on trees of
+ * 7 levels or more, without the border rule (control, forty-first December 2026 session:
+ * the pass left out for the baselines, view 9 draws a jump of 5). */
 static void test_level_jumps_of_five(void **state)
 {
 	enum { N = 4097 };
