@@ -168,7 +168,8 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 	t->count = f->hdr.index_records;
 	t->blocks = f->layout.blocks;
 	t->per_patch = t->blocks * t->blocks;
-	t->per_draw = RELIEF_VK_MAX_TESS_VERTICES_PER_DRAW / MAX_VERTICES_PER_QUAD;
+	/* A quad's factors are at most its block's cells: (16 + 1)^2 tessellated vertices. */
+	t->per_draw = relief_vk_quads_per_draw(RELIEF_BLOCK_CELLS);
 	t->max_patches = relief_patch_cache_pool(cache)->layers;
 	if (t->max_patches > t->count)
 		t->max_patches = t->count;

@@ -40,7 +40,9 @@ const char *relief_lod_pass_name(enum relief_lod_pass pass);
 
 struct relief_terrain_stats {
 	uint32_t patches;       /* drawn */
-	uint32_t draws;         /* indirect draw records */
+	/* indirect draw records, of both lists (shown and clipped), with and without seals; each
+	 * holds 1 .. relief_vk_quads_per_draw(RELIEF_BLOCK_CELLS) quads */
+	uint32_t draws;
 	uint32_t requests;      /* missing patches asked for this frame */
 	uint64_t triangles;     /* primitives reaching the clipper (pipeline statistics), 0 if unsupported */
 	/* quad patches the control shader ran for (pipeline statistics), 0 if unsupported: the

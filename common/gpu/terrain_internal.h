@@ -16,8 +16,6 @@ struct want {
 	uint32_t id;
 	float distance; /* metres from the camera to the patch's box */
 };
-/* Tessellated vertices of one quad patch at most: factor 16 everywhere, (16 + 1)^2. */
-#define MAX_VERTICES_PER_QUAD 289u
 /* A view's timestamp slots: the frame's four, then one after each of the first LOD passes
  * when they are timed (relief_draw_options.pass_timing; struct relief_terrain_view.timer). */
 #define FIRST_PASS_SLOT 4u

@@ -8,6 +8,7 @@
 #include "decode.h"
 #include "lod_scene.h"
 #include "pack.h"
+#include "pipeline.h"
 #include "vk.h"
 
 static enum relief_log_level lod_scene_level = RELIEF_LOG_WARN;
@@ -132,6 +133,14 @@ bool render_fits(struct scene *s, struct relief_view *v, const struct relief_dra
 			break;
 	}
 	assert_int_equal(st->requests, 0);
+	/* Every quad drawn is in a draw record of one of the four list parts, each record
+	 * holding 1 .. per_draw of them (the quads' count: pipeline statistics, 0 where the
+	 * device has none). */
+	if (st->quads > 0) {
+		const uint64_t per_draw = relief_vk_quads_per_draw(RELIEF_BLOCK_CELLS);
+		assert_true(st->draws >= 1 && st->draws <= st->quads);
+		assert_true(st->quads <= st->draws * per_draw);
+	}
 	memcpy(depth, s->target.depth_readback.map, sizeof(float) * v->width * v->height);
 	return true;
 }
