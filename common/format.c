@@ -21,7 +21,7 @@ enum {
 	H_TOL = 56, H_OX = 64, H_OY = 72, H_SX = 80, H_SY = 88, H_HMIN = 96, H_HMAX = 104, H_VALID = 112,
 	H_INDEX = 120, H_BLOCKERR = 128, H_MASKOFF = 136, H_CRSOFF = 144, H_DATAOFF = 152, H_DATASIZE = 160,
 	H_FILESIZE = 168, H_CRSSIZE = 176, H_INDEXCRC = 180, H_BLOCKCRC = 184, H_MASKCRC = 188, H_CRSCRC = 192,
-	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_BLOCKPATCHES = 336, H_CRC = 508,
+	H_FLAGS = 196, H_DELTA = 200, H_MASKSIZE = 328, H_BLOCKPATCHES = 336, H_ERRUNIT = 344, H_CRC = 508,
 };
 
 static size_t blocks_per_patch(uint32_t patch_size)
@@ -39,6 +39,15 @@ size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size)
 {
 	/* the errors, then from version 4 a range byte per block */
 	return relief_block_errors_per_patch(patch_size) + (version >= 4 ? blocks_per_patch(patch_size) : 0);
+}
+
+double relief_block_error_unit(double tolerance, double largest)
+{
+	const double unit = tolerance / 64.0;
+	/* the largest finite code, 254, stands for unit 2^(253/16); a hair more, so that the
+	 * rounding of that product cannot leave `largest` just above it */
+	const double needed = largest / exp2((RELIEF_BLOCK_CODE_INF - 2) / 16.0) * (1.0 + 1e-9);
+	return isfinite(needed) && needed > unit ? needed : unit;
 }
 
 /* Patch id's bytes in the block section: its errors, then (version 4) its range bytes. An
@@ -99,6 +108,8 @@ void relief_header_write(const struct relief_header *h, uint8_t *o)
 	le_put_u32(o + H_FLAGS, h->flags);
 	if (h->version >= 5)
 		le_put_u32(o + H_BLOCKPATCHES, h->block_patches);
+	if (h->version >= 8)
+		le_put_f64(o + H_ERRUNIT, h->block_error_unit);
 	for (uint32_t l = 0; l < RELIEF_MAX_LEVELS; l++)
 		le_put_f64(o + H_DELTA + 8 * l, l < h->levels ? h->delta[l] : 0.0);
 	le_put_u32(o + H_CRC, relief_crc32c(0, o, H_CRC));
@@ -152,9 +163,10 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	uint32_t crc = relief_crc32c(0, b, H_CRC);
 	if (crc_differs(crc, le_get_u32(b + H_CRC)))
 		return bad(err, err_size, "header checksum mismatch (stored %08x, computed %08x)", le_get_u32(b + H_CRC), crc);
-	/* Version 5 uses the first reserved word for the block section's record count. */
+	/* Version 5 uses the first reserved word for the block section's record count, version
+	 * 8 the double after it for the block error unit. */
 	for (size_t i = r.version >= 5 ? H_BLOCKPATCHES + 4 : H_BLOCKPATCHES; i < H_CRC; i++)
-		if (b[i])
+		if (b[i] && !(r.version >= 8 && i >= H_ERRUNIT && i < H_ERRUNIT + 8))
 			return bad(err, err_size, "reserved header byte %zu is not zero", i);
 	r.patch_size = le_get_u32(b + H_PATCH);
 	r.levels = le_get_u32(b + H_LEVELS);
@@ -168,6 +180,7 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	r.mask_count = le_get_u32(b + H_MASKS);
 	r.block_patches = r.version >= 5 ? le_get_u32(b + H_BLOCKPATCHES) : r.patch_count;
 	r.tolerance = le_get_f64(b + H_TOL);
+	r.block_error_unit = r.version >= 8 ? le_get_f64(b + H_ERRUNIT) : r.tolerance / 64.0;
 	r.origin_x = le_get_f64(b + H_OX);
 	r.origin_y = le_get_f64(b + H_OY);
 	r.spacing_x = le_get_f64(b + H_SX);
@@ -200,6 +213,9 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "block size %u cells, expected %u", r.block_cells, RELIEF_BLOCK_CELLS);
 	if (!finite_in(r.tolerance, 1e-4, 1e4))
 		return bad(err, err_size, "tolerance %g m outside [1e-4, 1e4]", r.tolerance);
+	if (!finite_in(r.block_error_unit, r.tolerance / 64.0, RELIEF_MAX_HEIGHT))
+		return bad(err, err_size, "block error unit %g m outside [%g, %g] (the tolerance / 64 at least)",
+		           r.block_error_unit, r.tolerance / 64.0, RELIEF_MAX_HEIGHT);
 	struct relief_layout L;
 	if (relief_layout_init(&L, r.patch_size, r.levels, r.ratio, r.tolerance) < 0)
 		return bad(err, err_size, "inconsistent layout");
@@ -624,7 +640,7 @@ void relief_file_block_errors(const struct relief_file *f, uint32_t id, float *e
 {
 	size_t n = relief_block_errors_per_patch(f->hdr.patch_size);
 	const uint8_t *p = patch_block_bytes(f, id);
-	const double unit = f->hdr.tolerance / 64.0;
+	const double unit = f->hdr.block_error_unit;
 	/* Before version 4 a block's error was measured against its patch's own surface, so the
 	 * bound for the block is that plus Err(P) (the paper's sum), rounded up. */
 	double err = 0.0;

@@ -28,7 +28,7 @@
  * non-EMPTY patches only, counted in the header; 6: index records only for the patches
  * of each level's index window (relief_index_windows()); 7: index records of 48 bytes
  * with the patch's drawn error (relief_patch_record). Versions 2 to 6 are still read. */
-#define RELIEF_FORMAT_VERSION 7u
+#define RELIEF_FORMAT_VERSION 8u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 /* Index record bytes: 48 from version 7, 40 before (relief_index_record_size()). */
@@ -66,6 +66,9 @@ struct relief_header {
 	double origin_x, origin_y;   /* world position of sample (0, 0), the north-west corner */
 	double spacing_x, spacing_y; /* metres; world y = origin_y - row * spacing_y */
 	double height_min, height_max; /* over valid original samples, metres */
+	/* the block error codes' unit, metres (relief_block_error_unit()): stored from version
+	 * 8, tolerance / 64 before */
+	double block_error_unit;
 	uint64_t valid_samples;
 	uint64_t index_offset, block_errors_offset, masks_offset, masks_size, crs_offset, data_offset, data_size,
 		file_size;
@@ -109,6 +112,13 @@ size_t relief_block_errors_per_patch(uint32_t patch_size);
 size_t relief_block_ranges_per_patch(uint32_t patch_size);
 /* Bytes per patch in the block section: its errors, then (version 4) its height ranges. */
 size_t relief_block_bytes_per_patch(uint32_t version, uint32_t patch_size);
+/* The unit of block error codes (relief_block_error_encode()), metres, for a file whose
+ * largest block error is `largest`: tolerance / 64, or more where the codes would not reach
+ * `largest` with it (the largest finite code stands for about 57,500 units). Before version
+ * 8 every file used tolerance / 64, so a block error over about 900 tolerances was stored
+ * as +infinity and that block drawn at full detail at any distance (on Puget Sound at 1 m,
+ * 17 of the root patch's 64 blocks). */
+double relief_block_error_unit(double tolerance, double largest);
 
 /* Serialises / parses the 512-byte header (parse checks magic, version, sizes, ranges and
  * the header CRC, and fills `lay`). */

@@ -354,6 +354,12 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		}
 	h.height_min = hmin;
 	h.height_max = hmax;
+	double largest = 0.0;
+	for (uint32_t e = 0; e < n; e++)
+		if (!(p->rec[e].flags & RELIEF_PATCH_EMPTY))
+			for (size_t i = 0; i < ne; i++)
+				largest = isfinite(p->eps[e][i]) && p->eps[e][i] > largest ? p->eps[e][i] : largest;
+	h.block_error_unit = relief_block_error_unit(p->lay.tolerance, largest);
 	uint64_t data_size = 0;
 	for (uint32_t e = 0; e < n; e++) {
 		if (p->rec[e].flags & RELIEF_PATCH_MASKED) {
@@ -396,7 +402,7 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 		if (!(r->flags & RELIEF_PATCH_EMPTY)) {
 			uint8_t *be = img + h.block_errors_offset + slot++ * be_per;
 			for (size_t i = 0; i < ne; i++)
-				be[i] = relief_block_error_encode(p->eps[e][i], p->lay.tolerance / 64.0);
+				be[i] = relief_block_error_encode(p->eps[e][i], h.block_error_unit);
 			const double *rg = p->ranges[e];
 			for (size_t i = 0; i < nr; i += 2)
 				be[ne + i / 2] = relief_block_range_encode(rg[i], r->height_min, r->height_max, false) |

@@ -58,9 +58,12 @@ double relief_patch_error(const struct relief_layout *lay, uint32_t l, uint32_t 
                           uint64_t *valid_count);
 
 /* Stored block errors are one byte each, a logarithmic code that rounds up, so a stored
- * bound is never below the measured one (and at most 2^(1/16) - 1 = 4.4% above it):
+ * bound is never below the measured one (and at most 2^(1/16) - 1 = 4.4% above it, or one
+ * unit where it is smaller than that):
  *   0: 0;  c in 1..254: unit * 2^((c - 1) / 16);  255: +infinity (never simplify).
- * unit = tolerance / 64, so the codes span about 1/64 to 60,000 times the tolerance. */
+ * The codes span 1 to 2^(253/16), about 57,500, units. The unit is the file's
+ * (relief_block_error_unit(): tolerance / 64, larger where the file's largest block error
+ * needs it, from format version 8), so no measured error is stored as +infinity. */
 #define RELIEF_BLOCK_CODE_INF 255
 uint8_t relief_block_error_encode(double e, double unit);
 float relief_block_error_decode(uint8_t code, double unit);

@@ -93,8 +93,8 @@ int cmd_info(int argc, char **argv)
 		       h->height_max, (unsigned long long)h->valid_samples, bps,
 		       h->source_units == RELIEF_UNITS_FEET ? "ft" : "m");
 		cli_json_string(stdout, f->crs);
-		printf(",\"index_records\":%u,\"block_records\":%u,\"metadata_bytes\":%llu", h->index_records,
-		       h->block_patches, (unsigned long long)h->data_offset);
+		printf(",\"index_records\":%u,\"block_records\":%u,\"block_error_unit_m\":%.17g,\"metadata_bytes\":%llu",
+		       h->index_records, h->block_patches, h->block_error_unit, (unsigned long long)h->data_offset);
 		printf(",\"corrupt_masks\":%u,\"levels\":[", bad_masks);
 		for (uint32_t l = 0; l < h->levels; l++)
 			printf("%s{\"level\":%u,\"delta_m\":%.17g,\"patches\":%u,\"nonempty\":%u,\"bytes\":%llu,"
@@ -115,7 +115,8 @@ int cmd_info(int argc, char **argv)
 		printf("  patches    %u samples, %u x %u blocks of %u cells, tolerance %.6g m, ratio %u\n", h->patch_size,
 		       f->layout.blocks, f->layout.blocks, h->block_cells, h->tolerance, h->ratio);
 		printf("  metadata   %llu bytes: %u index records, %u block records (patches without one are "
-		       "empty)\n", (unsigned long long)h->data_offset, h->index_records, h->block_patches);
+		       "empty), block errors in steps of 2^(1/16) from %.6g m\n",
+		       (unsigned long long)h->data_offset, h->index_records, h->block_patches, h->block_error_unit);
 		printf("  level  delta_m     patches  nonempty  blocks with data  max Err(P) m  max E0(P) m  bytes\n");
 		for (uint32_t l = 0; l < h->levels; l++)
 			printf("  %5u  %-10.6g  %7u  %8u  %6.1f%%           %-12.6g  %-11.6g  %llu\n", l, h->delta[l],

@@ -67,6 +67,8 @@ expect_text info-extent "extent"
 expect_text info-crs "+proj=eqc"
 check info-json 0 "$relief" info "$tmp/ps.relief" --json
 expect_text info-json-levels '"levels":[{"level":0'
+# the block error codes' unit: tolerance / 64 at 4 m (the largest error, ~2,600 m, fits)
+expect_text info-json-unit '"block_error_unit_m":0.0625,'
 # Blocks with a valid sample (what a renderer tessellates): all of Puget Sound's, not all of
 # Luxembourg's (no-data outside the border, padding beside it).
 blocks_ok() { # name want(all|some) json

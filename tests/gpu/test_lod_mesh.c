@@ -464,6 +464,64 @@ static void test_mesh_factors_per_method(void **state)
 	bound_close(&b);
 }
 
+/* A terrain seen from 1,000 km draws its root patch alone and every quad at factor 1: a
+ * block's error, a few hundred metres at most, projects to a fraction of a pixel there.
+ * Until format version 8 a block error beyond the largest finite code (about 900
+ * tolerances) was stored as +infinity, and such a block was drawn at full detail at any
+ * distance: from 1,000 km this frame of Puget Sound at 1 m drew 3,911 triangles instead of
+ * 192 (17 of the root's 64 blocks), at 0.1 m, where the codes stopped at 90 m, more. The
+ * views: straight down from 1,000 km and obliquely from 1,000 km away, 300 km up, tau 1,
+ * Puget Sound at 1 and 0.1 m, Mont Blanc at 1 m (its root partly outside the raster). */
+static void test_mesh_far_overview(void **state)
+{
+	const struct {
+		enum test_dem dem;
+		double tol;
+	} files[] = { { DEM_PUGET, 1.0 }, { DEM_PUGET, 0.1 }, { DEM_ALPS, 1.0 } };
+	struct relief_mesh_vertex *tri = malloc(sizeof(*tri) * 3 * (size_t)MESH_CAP);
+	struct relief_mesh_quad *quads = malloc(sizeof(*quads) * (size_t)MESH_CAP);
+	assert_true(tri && quads);
+	for (size_t i = 0; i < sizeof(files) / sizeof(files[0]); i++) {
+		struct scene s;
+		scene_open(&s, vk, files[i].dem, files[i].tol, BW, BH);
+		assert_int_equal(relief_terrain_view_mesh_enable(s.view, MESH_CAP), 0);
+		const struct relief_header *h = &s.f->hdr;
+		const double cx = h->origin_x + 0.5 * h->spacing_x * h->width, cy = h->origin_y - 0.5 * h->spacing_y * h->height;
+		const struct pose poses[] = { { { cx, cy, 1e6 }, { cx, cy, 0 } }, { { cx - 8e5, cy - 6e5, 3e5 }, { cx, cy, 0 } } };
+		for (size_t k = 0; k < 2; k++) {
+			struct relief_view v = pose_view(&poses[k]);
+			v.tau = 1.0;
+			v.znear = 100;
+			v.zfar = 2e6;
+			float *depth = malloc(sizeof(float) * BW * BH);
+			struct relief_terrain_stats st;
+			const struct relief_draw_options o = { .fine = RELIEF_FINE_ERRORS, .mesh = true };
+			render_with(&s, &v, &o, depth, &st);
+			free(depth);
+			const int64_t n = relief_terrain_view_mesh(s.view, tri, quads, MESH_CAP);
+			assert_true(n > 0 && n <= MESH_CAP);
+			assert_seamless(tri, (uint64_t)n);
+			uint64_t fine = 0;
+			for (int64_t t = 0; t < n; t++) {
+				const struct relief_mesh_quad *q = &quads[t];
+				fine += q->inner > 1 || q->outer[0] > 1 || q->outer[1] > 1 || q->outer[2] > 1 || q->outer[3] > 1;
+			}
+			print_message("%s at %g m, view %zu: %u patches, %lld triangles, %llu in quads over factor 1\n",
+			              test_dem_name(files[i].dem), files[i].tol, k, st.patches, (long long)n,
+			              (unsigned long long)fine);
+			/* the root alone: at most two triangles per block and curtain quad */
+			const uint32_t B = s.f->layout.blocks;
+			assert_int_equal(st.patches, 1);
+			assert_int_equal(fine, 0);
+			assert_true((uint64_t)n <= 2ull * (B * B + 4 * B));
+		}
+		scene_close(&s);
+	}
+	free(quads);
+	free(tri);
+	gpu_test_assert_clean(vk);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -479,6 +537,7 @@ int main(void)
 		cmocka_unit_test(test_mesh_loose_transitions),
 		cmocka_unit_test(test_mesh_single_segment_frame),
 		cmocka_unit_test(test_mesh_factors_per_method),
+		cmocka_unit_test(test_mesh_far_overview),
 	};
 	gpu_test_mesh_capture = true;
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);

@@ -182,6 +182,11 @@ static void test_hostile_header_fields(void **state)
 	expect(open_with_f64(80, -1.0, err, sizeof(err)), err, "spacing");
 	expect(open_with_f64(96, 1e300, err, sizeof(err)), err, "height range");
 	expect(open_with_f64(200 + 8, 3.0, err, sizeof(err)), err, "level 1 tolerance");
+	/* The block error unit (version 8): at least tolerance / 64, finite, at most 1e6 m. */
+	expect(open_with_f64(344, 0.0, err, sizeof(err)), err, "block error unit");
+	expect(open_with_f64(344, NAN, err, sizeof(err)), err, "block error unit");
+	expect(open_with_f64(344, 1e7, err, sizeof(err)), err, "block error unit");
+	expect(open_with_f64(344, -1.0, err, sizeof(err)), err, "block error unit");
 	/* Sections out of bounds or overlapping. */
 	expect(open_with_u32(120, 7, err, sizeof(err)), err, "index");
 	expect(open_with_u32(120, 0xfffffff8u, err, sizeof(err)), err, "index");
@@ -192,6 +197,7 @@ static void test_hostile_header_fields(void **state)
 	expect(open_with_u32(400, 1, err, sizeof(err)), err, "reserved");
 	expect(open_with_u32(336, 0, err, sizeof(err)), err, "block records"); /* version 5's count */
 	expect(open_with_u32(336, 1000000, err, sizeof(err)), err, "block records");
+	expect(open_with_u32(352, 1, err, sizeof(err)), err, "reserved"); /* just after the unit */
 }
 
 /* Rewrites index record `id` (fixing the index CRC): with `edit`, or when edit is NULL by
@@ -367,7 +373,7 @@ static void test_version2_still_read(void **state)
 	 * So every current bound is at most the old one plus that tolerance (both rounded up
 	 * by the byte code, at most 2^(1/16) above what was measured, never below one unit). */
 	const size_t nb = relief_block_errors_per_patch(v2->hdr.patch_size);
-	const double unit = v2->hdr.tolerance / 64.0, fin = v2->layout.delta[v2->hdr.levels - 1];
+	const double unit = v3->hdr.block_error_unit, fin = v2->layout.delta[v2->hdr.levels - 1];
 	float *e2 = malloc(sizeof(float) * nb), *e3 = malloc(sizeof(float) * nb);
 	double sum2 = 0, sum3 = 0;
 	for (uint32_t id = 0; id < v2->hdr.patch_count; id++) {
@@ -415,7 +421,9 @@ static void assert_same_record(const struct relief_file *old, uint32_t id, const
 	assert_true(a->flags == b->flags && a->mask_offset == b->mask_offset && a->mask_size == b->mask_size);
 	uint32_t l, px, py;
 	assert_true(relief_patch_coords(&old->layout, id, &l, &px, &py));
-	if (a->flags & RELIEF_PATCH_EMPTY)
+	if (old->hdr.version >= 7)
+		assert_true(a->draw_error == b->draw_error);
+	else if (a->flags & RELIEF_PATCH_EMPTY)
 		assert_true(a->draw_error == 0.0f && b->draw_error == 0.0f);
 	else if (l + 1 == old->hdr.levels)
 		assert_true(a->draw_error == a->error);
@@ -424,8 +432,37 @@ static void assert_same_record(const struct relief_file *old, uint32_t id, const
 		         a->draw_error, a->error);
 }
 
-/* Every patch of `old` and `now` reads the same: index record, block errors and ranges,
- * stream. Returns the number of EMPTY patches. */
+/* Block error bounds of one patch read from an older file (e0) and from one packed now (e1):
+ * codes of the same measured errors, each the least of its file's codes at or above the
+ * error (relief_block_error_encode(), at most 2^(1/16) above it or one unit), in units
+ * that differ from version 8 on (relief_block_error_unit()). An error the older file could
+ * not code is +infinity there and finite now. Returns how many of those. */
+static uint32_t assert_same_block_bounds(const struct relief_file *old, const struct relief_file *now,
+                                         const float *e0, const float *e1, size_t n)
+{
+	const double u0 = old->hdr.block_error_unit, u1 = now->hdr.block_error_unit;
+	const double step = exp2(1.0 / 16) * (1 + 1e-6);
+	if (u0 == u1) {
+		assert_memory_equal(e0, e1, sizeof(float) * n);
+		return 0;
+	}
+	uint32_t uncoded = 0;
+	for (size_t i = 0; i < n; i++) {
+		assert_true(isfinite(e1[i]));
+		if (isinf(e0[i])) {
+			uncoded++;
+			continue;
+		}
+		assert_true((e0[i] == 0) == (e1[i] == 0));
+		if (!(e1[i] <= fmax(u1 * (1 + 1e-6), step * e0[i]) && e0[i] <= fmax(u0 * (1 + 1e-6), step * e1[i])))
+			fail_msg("block error %zu: %g then (unit %g), %g now (unit %g)", i, e0[i], u0, e1[i], u1);
+	}
+	return uncoded;
+}
+
+/* Every patch of `old` and `now` reads the same: index record, block errors (as codes of
+ * the same errors: assert_same_block_bounds()) and ranges, stream. Returns the number of
+ * EMPTY patches. */
 static uint32_t assert_same_patches(const struct relief_file *old, const struct relief_file *now)
 {
 	const uint32_t n = old->hdr.patch_count;
@@ -436,19 +473,20 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 	float *e0 = malloc(sizeof(float) * ne), *e1 = malloc(sizeof(float) * ne);
 	float *r0 = malloc(sizeof(float) * nr), *r1 = malloc(sizeof(float) * nr);
 	uint8_t *s0 = malloc(old->max_stream), *s1 = malloc(now->max_stream);
-	uint32_t empty = 0;
+	uint32_t empty = 0, uncoded = 0;
 	for (uint32_t id = 0; id < n; id++) {
 		struct relief_patch_record a, b;
 		relief_file_record(old, id, &a);
 		relief_file_record(now, id, &b);
 		assert_same_record(old, id, &a, &b);
-		/* the drawn error as measured: only what version 7 stores */
-		assert_true(isinf(relief_file_measured_draw_error(old, &a)));
+		/* the drawn error as measured: only what version 7 on stores */
+		assert_true(old->hdr.version >= 7 ? relief_file_measured_draw_error(old, &a) == a.draw_error
+		                                  : isinf(relief_file_measured_draw_error(old, &a)));
 		assert_true(relief_file_measured_draw_error(now, &b) == b.draw_error);
 		empty += !!(a.flags & RELIEF_PATCH_EMPTY);
 		relief_file_block_errors(old, id, e0);
 		relief_file_block_errors(now, id, e1);
-		assert_memory_equal(e0, e1, sizeof(float) * ne);
+		uncoded += assert_same_block_bounds(old, now, e0, e1, ne);
 		relief_file_block_ranges(old, id, r0);
 		relief_file_block_ranges(now, id, r1);
 		assert_memory_equal(r0, r1, sizeof(float) * nr);
@@ -460,6 +498,7 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 			assert_memory_equal(s0, s1, z0);
 		}
 	}
+	print_message("version %u: %u block errors stored as +infinity (none now)\n", old->hdr.version, uncoded);
 	free(s0);
 	free(s1);
 	free(e0);
@@ -469,17 +508,19 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 	return empty;
 }
 
-/* Versions 4 to 6 are still read. tests/data/alps-crop-140x100-v4.relief was written by the
+/* Versions 4 to 7 are still read. tests/data/alps-crop-140x100-v4.relief was written by the
  * last version-4 packer (commit 8180fba), alps-crop-140x100-v5.relief by the last version-5
  * packer (commit 620b9bf), alps-crop-140x100-v6.relief by the last version-6 packer (commit
- * 01fc8e7), all from the Mont Blanc crop with the options of the version-2 file above.
+ * 01fc8e7), alps-crop-140x100-v7.relief by the last version-7 packer (commit d90d6fe), all
+ * from the Mont Blanc crop with the options of the version-2 file above.
  * Version 5 dropped the block records of EMPTY patches (12 of this file's 21), which read
  * as zero bytes, what version 4 stored for them; version 6 drops their index records too
  * (all 12 lie outside the raster's windows), which read as what earlier versions stored;
- * version 7 adds the drawn error to every index record (assert_same_record()). So the same
- * input packed now reads the same for every patch but that, and the files differ by those
- * records. */
-static void test_versions4_to_6_still_read(void **state)
+ * version 7 adds the drawn error to every index record (assert_same_record()); version 8
+ * codes the block errors in a unit of its own (assert_same_block_bounds(): the older files
+ * hold 9 errors as +infinity). So the same input packed now reads the same for every patch
+ * but those, and the files differ by those records. */
+static void test_versions4_to_7_still_read(void **state)
 {
 	const struct {
 		const char *name;
@@ -487,7 +528,8 @@ static void test_versions4_to_6_still_read(void **state)
 		bool block_records; /* it holds block records for EMPTY patches */
 	} olds[] = { { "alps-crop-140x100-v4.relief", 4, true },
 	             { "alps-crop-140x100-v5.relief", 5, false },
-	             { "alps-crop-140x100-v6.relief", 6, false } };
+	             { "alps-crop-140x100-v6.relief", 6, false },
+	             { "alps-crop-140x100-v7.relief", 7, false } };
 	for (size_t i = 0; i < sizeof(olds) / sizeof(olds[0]); i++) {
 		uint8_t *img_now;
 		size_t size_now;
@@ -505,7 +547,7 @@ static void test_versions4_to_6_still_read(void **state)
 		assert_int_equal(stat(test_data(olds[i].name), &st), 0);
 		/* The files differ by their index and block records only (and up to 8 bytes of
 		 * alignment per section): EMPTY patches' records dropped (versions 5 and 6), index
-		 * records of 48 bytes instead of 40 (version 7). */
+		 * records of 48 bytes instead of 40 (version 7); version 8 by a header field. */
 		const size_t per = relief_block_bytes_per_patch(olds[i].version, old->hdr.patch_size);
 		const int64_t records_then = (int64_t)old->hdr.index_records * relief_index_record_size(olds[i].version) +
 		                             (int64_t)old->hdr.block_patches * (int64_t)per;
@@ -560,7 +602,7 @@ int main(void)
 		cmocka_unit_test(test_inverted_block_range),
 		cmocka_unit_test(test_open_from_disk),
 		cmocka_unit_test(test_version2_still_read),
-		cmocka_unit_test(test_versions4_to_6_still_read),
+		cmocka_unit_test(test_versions4_to_7_still_read),
 		cmocka_unit_test(test_mask_blocks),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);
