@@ -27,7 +27,8 @@
  * decoded surface, and block height ranges (patch_error.h); 5: block records for
  * non-EMPTY patches only, counted in the header; 6: index records only for the patches
  * of each level's index window (relief_index_windows()); 7: index records of 48 bytes
- * with the patch's drawn error (relief_patch_record). Versions 2 to 6 are still read. */
+ * with the patch's drawn error (relief_patch_record); 8: the block error codes' unit in
+ * the header (relief_block_error_unit()). Versions 2 to 7 are still read. */
 #define RELIEF_FORMAT_VERSION 8u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u

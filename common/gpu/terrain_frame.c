@@ -358,7 +358,9 @@ int relief_terrain_view_wait(struct relief_terrain *t, struct relief_terrain_vie
 	const bool gpu_cull = v->gpu_cull;
 	const struct counters *c = v->read_counters.map;
 	struct relief_terrain_stats s = {
-		.patches = c->drawn, .draws = c->draws + c->draw_sealed[3] + c->draw_split[2] + c->draw_sealed[2], .requests = c->wants,
+		.patches = c->drawn,
+		.draws = c->draws + c->draw_sealed[3] + c->draw_split[2] + c->draw_sealed[2], /* shown, clipped */
+		.requests = c->wants,
 		.face_culled = c->draw_culled != 0, /* the decision the draws used */
 		.cull_height = gpu_cull && c->found ? c->near_high : NAN,
 		.clipped_quads = c->draw_split[3],
