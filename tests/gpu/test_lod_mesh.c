@@ -465,7 +465,7 @@ static void test_mesh_factors_per_method(void **state)
 }
 
 /* A terrain seen from 1,000 km draws its root patch alone and every quad at factor 1: a
- * block's error, a few hundred metres at most, projects to a fraction of a pixel there.
+ * block's error, under 3 km on these terrains, projects to under a pixel there.
  * Until format version 8 a block error beyond the largest finite code (about 900
  * tolerances) was stored as +infinity, and such a block was drawn at full detail at any
  * distance: from 1,000 km this frame of Puget Sound at 1 m drew 3,911 triangles instead of
