@@ -180,7 +180,8 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 	r.mask_count = le_get_u32(b + H_MASKS);
 	r.block_patches = r.version >= 5 ? le_get_u32(b + H_BLOCKPATCHES) : r.patch_count;
 	r.tolerance = le_get_f64(b + H_TOL);
-	r.block_error_unit = r.version >= 8 ? le_get_f64(b + H_ERRUNIT) : r.tolerance / 64.0;
+	const double least_unit = relief_block_error_unit(r.tolerance, 0.0); /* tolerance / 64 */
+	r.block_error_unit = r.version >= 8 ? le_get_f64(b + H_ERRUNIT) : least_unit;
 	r.origin_x = le_get_f64(b + H_OX);
 	r.origin_y = le_get_f64(b + H_OY);
 	r.spacing_x = le_get_f64(b + H_SX);
@@ -213,9 +214,9 @@ int relief_header_parse(const uint8_t *b, size_t size, struct relief_header *h, 
 		return bad(err, err_size, "block size %u cells, expected %u", r.block_cells, RELIEF_BLOCK_CELLS);
 	if (!finite_in(r.tolerance, 1e-4, 1e4))
 		return bad(err, err_size, "tolerance %g m outside [1e-4, 1e4]", r.tolerance);
-	if (!finite_in(r.block_error_unit, r.tolerance / 64.0, RELIEF_MAX_HEIGHT))
+	if (!finite_in(r.block_error_unit, least_unit, RELIEF_MAX_HEIGHT))
 		return bad(err, err_size, "block error unit %g m outside [%g, %g] (the tolerance / 64 at least)",
-		           r.block_error_unit, r.tolerance / 64.0, RELIEF_MAX_HEIGHT);
+		           r.block_error_unit, least_unit, RELIEF_MAX_HEIGHT);
 	struct relief_layout L;
 	if (relief_layout_init(&L, r.patch_size, r.levels, r.ratio, r.tolerance) < 0)
 		return bad(err, err_size, "inconsistent layout");

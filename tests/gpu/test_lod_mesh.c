@@ -414,6 +414,21 @@ static void test_mesh_single_segment_frame(void **state)
 	bound_close(&b);
 }
 
+/* Renders v (converged) with the fine LOD `fine` and the capture on, depth into `depth`;
+ * captures its triangles with their quads (at most MESH_CAP) and checks the mesh has no
+ * seam. Returns their number. */
+static int64_t mesh_capture(struct scene *s, struct relief_view *v, enum relief_fine_lod fine, float *depth,
+                            struct relief_mesh_vertex *tri, struct relief_mesh_quad *quads,
+                            struct relief_terrain_stats *st)
+{
+	const struct relief_draw_options o = { .fine = fine, .mesh = true };
+	render_with(s, v, &o, depth, st);
+	const int64_t n = relief_terrain_view_mesh(s->view, tri, quads, MESH_CAP);
+	assert_true(n > 0 && n <= MESH_CAP);
+	assert_seamless(tri, (uint64_t)n);
+	return n;
+}
+
 /* The factors each method's frames draw with, from the capture: each kind of frame has
  * factor and border passes of its own (terrain_lod_pipelines_create(), the fine LOD a
  * specialization constant), so a frame that took another kind's would draw other factors.
@@ -426,11 +441,7 @@ static uint64_t mesh_factors(struct bound_scene *b, struct relief_view *v, enum 
                              struct relief_mesh_vertex *tri, struct relief_mesh_quad *quads, uint64_t *coarse)
 {
 	struct relief_terrain_stats st;
-	const struct relief_draw_options o = { .fine = fine, .mesh = true };
-	render_with(&b->s, v, &o, b->lod, &st);
-	int64_t n = relief_terrain_view_mesh(b->s.view, tri, quads, MESH_CAP);
-	assert_true(n > 0 && n <= MESH_CAP);
-	assert_seamless(tri, (uint64_t)n); /* the baselines' frames too */
+	const int64_t n = mesh_capture(&b->s, v, fine, b->lod, tri, quads, &st); /* the baselines' frames too */
 	*coarse = 0;
 	for (int64_t k = 0; k < n; k++) {
 		const struct relief_mesh_quad *q = &quads[k];
@@ -485,6 +496,8 @@ static void test_mesh_far_overview(void **state)
 		struct scene s;
 		scene_open(&s, vk, files[i].dem, files[i].tol, BW, BH);
 		assert_int_equal(relief_terrain_view_mesh_enable(s.view, MESH_CAP), 0);
+		float *depth = malloc(sizeof(float) * BW * BH);
+		assert_non_null(depth);
 		const struct relief_header *h = &s.f->hdr;
 		const double cx = h->origin_x + 0.5 * h->spacing_x * h->width, cy = h->origin_y - 0.5 * h->spacing_y * h->height;
 		const struct pose poses[] = { { { cx, cy, 1e6 }, { cx, cy, 0 } }, { { cx - 8e5, cy - 6e5, 3e5 }, { cx, cy, 0 } } };
@@ -493,14 +506,8 @@ static void test_mesh_far_overview(void **state)
 			v.tau = 1.0;
 			v.znear = 100;
 			v.zfar = 2e6;
-			float *depth = malloc(sizeof(float) * BW * BH);
 			struct relief_terrain_stats st;
-			const struct relief_draw_options o = { .fine = RELIEF_FINE_ERRORS, .mesh = true };
-			render_with(&s, &v, &o, depth, &st);
-			free(depth);
-			const int64_t n = relief_terrain_view_mesh(s.view, tri, quads, MESH_CAP);
-			assert_true(n > 0 && n <= MESH_CAP);
-			assert_seamless(tri, (uint64_t)n);
+			const int64_t n = mesh_capture(&s, &v, RELIEF_FINE_ERRORS, depth, tri, quads, &st);
 			uint64_t fine = 0;
 			for (int64_t t = 0; t < n; t++) {
 				const struct relief_mesh_quad *q = &quads[t];
@@ -515,6 +522,7 @@ static void test_mesh_far_overview(void **state)
 			assert_int_equal(fine, 0);
 			assert_true((uint64_t)n <= 2ull * (B * B + 4 * B));
 		}
+		free(depth);
 		scene_close(&s);
 	}
 	free(quads);
