@@ -28,8 +28,10 @@
  * non-EMPTY patches only, counted in the header; 6: index records only for the patches
  * of each level's index window (relief_index_windows()); 7: index records of 48 bytes
  * with the patch's drawn error (relief_patch_record); 8: the block error codes' unit in
- * the header (relief_block_error_unit()). Versions 2 to 7 are still read. */
-#define RELIEF_FORMAT_VERSION 8u
+ * the header (relief_block_error_unit()); 9: the windows also code the first sample past
+ * the raster's extent at every level (relief_patch_window()'s rim). Versions 2 to 8 are
+ * still read, and the packer can write version 8 (relief_pack_options.version). */
+#define RELIEF_FORMAT_VERSION 9u
 #define RELIEF_FORMAT_VERSION_MIN 2u
 #define RELIEF_HEADER_SIZE 512u
 /* Index record bytes: 48 from version 7, 40 before (relief_index_record_size()). */

@@ -37,35 +37,42 @@ uint32_t relief_layout_levels_for(uint32_t patch, uint32_t width, uint32_t heigh
 	return L + 1;
 }
 
-/* Window end along one axis: the local index of the first sample not coded. */
-static int32_t window_end(const struct relief_layout *lay, uint32_t extent, uint32_t l, uint32_t origin)
+uint32_t relief_level_coded(const struct relief_layout *lay, uint32_t extent, uint32_t l, bool rim)
 {
-	const uint32_t P = lay->geom.P, S = relief_level_size(lay, l);
 	const uint64_t step = 1ull << (lay->levels - 1 - l);
 	uint64_t n = (extent + step - 1) / step; /* level-l samples with a finest index < extent */
-	n += n & 1;                              /* the first even one at or beyond (origin is even) */
+	n += rim;                                /* and the first one past it */
+	if (l > 0)
+		n += n & 1; /* the first even one at or beyond (patch origins are even) */
+	return (uint32_t)n;
+}
+
+/* Window end along one axis (l > 0): the local index of the first sample not coded. */
+static int32_t window_end(const struct relief_layout *lay, uint32_t extent, uint32_t l, uint32_t origin, bool rim)
+{
+	const uint32_t P = lay->geom.P, S = relief_level_size(lay, l);
+	const uint64_t n = relief_level_coded(lay, extent, l, rim);
 	if ((uint64_t)origin + P >= S || n >= (uint64_t)origin + P + 1)
 		return (int32_t)P + 1; /* the grid's ring, or no padding inside the patch */
 	return n <= origin ? 0 : (int32_t)(n - origin);
 }
 
 void relief_patch_window(const struct relief_layout *lay, uint32_t width, uint32_t height, uint32_t l, uint32_t px,
-                         uint32_t py, struct relief_window *win)
+                         uint32_t py, bool rim, struct relief_window *win)
 {
 	if (l == 0) {
 		/* The root's no-data samples, the whole ring included, take the MED prediction
 		 * (residual 0), which its decoder computes in raster order from what came before:
 		 * any sample outside the extent may be skipped. */
-		const uint64_t step = 1ull << (lay->levels - 1);
-		*win = (struct relief_window){ 0, 0, (int32_t)((width + step - 1) / step),
-		                               (int32_t)((height + step - 1) / step), false, false };
+		*win = (struct relief_window){ 0, 0, (int32_t)relief_level_coded(lay, width, 0, rim),
+		                               (int32_t)relief_level_coded(lay, height, 0, rim), false, false };
 		return;
 	}
 	const uint32_t step = lay->geom.P - 1;
 	win->x0 = -1;
 	win->y0 = -1;
-	win->x1 = window_end(lay, width, l, px * step);
-	win->y1 = window_end(lay, height, l, py * step);
+	win->x1 = window_end(lay, width, l, px * step, rim);
+	win->y1 = window_end(lay, height, l, py * step, rim);
 	win->ring_west = px == 0;
 	win->ring_north = py == 0;
 }

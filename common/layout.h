@@ -58,17 +58,27 @@ bool relief_patch_coords(const struct relief_layout *lay, uint32_t id, uint32_t 
 
 /* The samples patch (l, px, py)'s stream codes (format version 3) for a raster whose valid
  * extent is width x height finest samples. Skipped: the patch's samples inside the level
- * grid (global 0..S_l - 1) from the first even column (row) at or beyond the extent's
- * level-l width (height), ceil(width / 2^(L-1-l)). The packer gives them label 0 and
- * residual 0 (no-data takes the prediction), and the patch-local prediction equals that
- * global one there because every refined value it uses is beyond the extent, where labels
- * are 0 (hence the even column). The grid's outer ring (global -1 and S_l) stays coded: its
- * values are clamped copies, not the patch-local prediction (ring_west, ring_north, and a
- * full window for the last patch column and row). The root (l = 0) codes exactly the
- * samples inside the extent: its prediction is causal (MED in raster order), and the packer
- * gives every sample outside, its ring included, the prediction. */
+ * grid (global 0..S_l - 1) from the first even column (row) at or beyond n, the extent's
+ * level-l width (height) ceil(width / 2^(L-1-l)), plus one with `rim` (format version 9:
+ * the first column past the extent is coded, so that the packer can put it at the edge's
+ * height at every level: docs/codec.md, "No-data"). The packer gives the skipped samples
+ * label 0 and residual 0 (they take the prediction; relief_level_coded() below), and the
+ * patch-local prediction equals that global one there because every refined value it uses
+ * is skipped too, where labels are 0 (hence the even column). The grid's outer ring
+ * (global -1 and S_l) stays coded: its values are clamped copies, not the patch-local
+ * prediction (ring_west, ring_north, and a full window for the last patch column and
+ * row). The root (l = 0) codes exactly the samples inside the extent (and with `rim` the
+ * first past it): its prediction is causal (MED in raster order), and the packer gives
+ * every sample outside, its ring included, the prediction. */
 void relief_patch_window(const struct relief_layout *lay, uint32_t width, uint32_t height, uint32_t l, uint32_t px,
-                         uint32_t py, struct relief_window *win);
+                         uint32_t py, bool rim, struct relief_window *win);
+
+/* The level-l samples [0, n) along an axis of `extent` finest samples, n = ceil(extent /
+ * 2^(L-1-l)) (+ 1 with `rim`) rounded up to even below the root: every patch stream whose
+ * block holds such a sample codes it (the windows above), so the packer may give it any
+ * value, and those past the extent are what it fills (common/fill.h). The grid's west and
+ * north ring (global -1) is coded too but left to the prediction. */
+uint32_t relief_level_coded(const struct relief_layout *lay, uint32_t extent, uint32_t l, bool rim);
 
 /* A level's quantised values with a one-sample ring, over a window of the level that
  * starts at its sample 0 (the raster lies at the grid's origin, padding east and south):

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "crc32c.h"
+#include "fill.h"
 #include "format.h"
 #include "le.h"
 #include "pack.h"
@@ -43,6 +44,12 @@ struct packer {
 	struct relief_qgrid q[RELIEF_MAX_LEVELS];
 	uint32_t level; /* for the per-level row jobs */
 	struct relief_original orig;
+	/* What coded samples are quantised from (level_target()): the raster's heights, or
+	 * with no-data the fill (target_own) */
+	const float *target;
+	float *target_own;
+	uint16_t *ring; /* with no-data: each raster sample's ring (common/fill.h), else NULL */
+	uint32_t coded[RELIEF_MAX_LEVELS][2]; /* relief_level_coded() of width and height */
 	struct relief_finest finest; /* what block errors are measured against */
 
 	/* The file's index layout (relief_index_windows()): the per-patch results below have
@@ -65,6 +72,39 @@ struct packer {
 	double level_err[RELIEF_MAX_LEVELS];
 };
 
+/* True when level-l sample (x, y) is coded by every patch stream that holds it
+ * (relief_level_coded()), so that the packer may pick its value; the streams skip the
+ * others, which take the prediction (label 0, residual 0). */
+static inline bool level_coded(const struct packer *p, uint32_t l, int x, int y)
+{
+	return x >= 0 && y >= 0 && (uint32_t)x < p->coded[l][0] && (uint32_t)y < p->coded[l][1];
+}
+
+/* The height a coded level-l sample (x, y) is quantised from, in *h, or false when the
+ * packer leaves it to the prediction. Valid samples take the raster's height. So do the
+ * samples within one level-l sample spacing (2^(L-1-l) finest samples, Chebyshev) of the
+ * data, from the fill (common/fill.h) at no-data samples and from the nearest raster
+ * sample past the raster's east and south edges: the half cell a renderer draws beyond a
+ * valid sample leans towards its neighbours, so they must lie at the data's height. The
+ * rule is a distance against the level's spacing, so a sample filled at a level is filled
+ * at every coarser one, where it sits at the same place: the refined labels never clamp
+ * (quantise_refined()). Samples farther out cost almost nothing as predictions. */
+static inline bool level_target(const struct packer *p, uint32_t l, int x, int y, double *h)
+{
+	if (!level_coded(p, l, x, y))
+		return false;
+	const uint64_t step = 1ull << (p->lay.levels - 1 - l), W = p->dem->width, H = p->dem->height;
+	const uint64_t X = (uint64_t)x * step, Y = (uint64_t)y * step;
+	const uint64_t cx = X < W ? X : W - 1, cy = Y < H ? Y : H - 1, i = cy * W + cx;
+	uint64_t d = p->ring ? p->ring[i] : 0;
+	d = X - cx > d ? X - cx : d;
+	d = Y - cy > d ? Y - cy : d;
+	if (d > step)
+		return false;
+	*h = p->target[i];
+	return true;
+}
+
 /* True when level-l sample (x, y) is an original, valid sample. */
 static inline bool level_valid(const struct packer *p, uint32_t l, int x, int y)
 {
@@ -72,14 +112,6 @@ static inline bool level_valid(const struct packer *p, uint32_t l, int x, int y)
 		return false;
 	uint64_t step = 1ull << (p->lay.levels - 1 - l), X = (uint64_t)x * step, Y = (uint64_t)y * step;
 	return X < p->dem->width && Y < p->dem->height && p->dem->valid[Y * p->dem->width + X];
-}
-
-/* The height of level-l sample (x, y), which must be valid (level_valid()): only valid
- * samples are ever quantised from a height; no-data ones take a prediction. */
-static inline double level_height(const struct packer *p, uint32_t l, int x, int y)
-{
-	const size_t step = (size_t)1 << (p->lay.levels - 1 - l);
-	return p->dem->heights[(size_t)y * step * p->dem->width + (size_t)x * step];
 }
 
 /* The last refined (even) index along a window side of n samples of a level of side S
@@ -90,11 +122,13 @@ static inline uint32_t last_refined(uint32_t n, uint32_t S)
 }
 
 /* Level quantisation, pass 1: the refined samples (x, y even, inside), row 2*row2.
- * Level 0 quantises every valid sample (ring included).
+ * Level 0 quantises the samples level_target() gives a height.
  * Level l > 0 refines the parent: q = k q_parent + r, r clamped to {-1, 0, 1}. For k = 2
  * the clamp never acts (|h/(2 delta) - 2 q_parent| <= 1); for k = 3 only at exact ties
- * (|.| = 1.5), where r = +-1 still gives |h - 2 delta q| = delta. No-data samples take
- * r = 0: their heights are never drawn, so they cost one cheap label. */
+ * (|.| = 1.5), where r = +-1 still gives |h - 2 delta q| = delta. That holds for filled
+ * no-data samples as for valid ones: such a sample's parent is coded (relief_level_coded()
+ * halves to at most the parent's) and filled too (level_target()), from the same height.
+ * The other samples take r = 0. */
 static int quantise_refined(void *ctx, size_t row2)
 {
 	struct packer *p = ctx;
@@ -103,15 +137,17 @@ static int quantise_refined(void *ctx, size_t row2)
 	const uint32_t S = g->size;
 	const double inv = 1.0 / (2.0 * p->lay.delta[l]);
 	if (l == 0) {
-		/* The root level is the root patch (ring included): valid samples are quantised,
-		 * no-data samples take the root coder's MED prediction, so their residual is 0.
-		 * Raster order matters here, so the root is done by one call. */
+		/* The root level is the root patch (ring included): the samples with a target are
+		 * quantised, the others (its ring, past the extent, far from the data) take the root
+		 * coder's MED prediction, so their residual is 0. Raster order matters here, so the root is
+		 * done by one call. */
 		const size_t E = S + 2; /* the root's window is the whole level */
 		for (size_t i = 0; i < E * E; i++) {
 			int x = (int)(i % E) - 1, y = (int)(i / E) - 1;
-			g->q[i] = level_valid(p, 0, x, y) ? (int32_t)llround(level_height(p, 0, x, y) * inv)
-			                                  : relief_root_predict(g->q, (uint32_t)E, (uint32_t)(x + 1),
-			                                                        (uint32_t)(y + 1));
+			double h;
+			g->q[i] = level_target(p, 0, x, y, &h) ? (int32_t)llround(h * inv)
+			                                       : relief_root_predict(g->q, (uint32_t)E, (uint32_t)(x + 1),
+			                                                             (uint32_t)(y + 1));
 		}
 		return 0;
 	}
@@ -120,8 +156,9 @@ static int quantise_refined(void *ctx, size_t row2)
 	int y = 2 * (int)row2, last = (int)last_refined(g->w, S);
 	for (int x = 0; x <= last; x += 2) {
 		int32_t qp = pg->q[relief_qgrid_index(pg, x / 2, y / 2)], r = 0;
-		if (level_valid(p, l, x, y)) {
-			r = (int32_t)llround(level_height(p, l, x, y) * inv) - k * qp;
+		double h;
+		if (level_target(p, l, x, y, &h)) {
+			r = (int32_t)llround(h * inv) - k * qp;
 			r = r < -1 ? -1 : r > 1 ? 1 : r;
 		}
 		g->q[relief_qgrid_index(g, x, y)] = k * qp + r;
@@ -130,7 +167,7 @@ static int quantise_refined(void *ctx, size_t row2)
 }
 
 /* Global bilinear prediction of a non-refined sample from the refined ones (index clamped
- * at the grid's edge), the value no-data samples take. Any fixed rule keeps every patch's
+ * at the grid's edge), the value of every sample without a target (level_target()). Any fixed rule keeps every patch's
  * copy of a sample equal; this one makes most of their residuals 0. In a window smaller
  * than the level, the index is clamped at the window's last refined (even) column or row
  * (only refined samples are read: pass 2 writes the others concurrently), so the window's
@@ -149,7 +186,8 @@ static int32_t global_predict(const struct relief_qgrid *g, int x, int y)
 }
 
 /* Pass 2 (levels > 0): every other sample of row y in [-1, h], ring included:
- * q = round(h / (2 delta)) where valid, the global prediction where not. */
+ * q = round(target / (2 delta)) where level_target() gives one, the global prediction
+ * elsewhere. */
 static int quantise_row(void *ctx, size_t row)
 {
 	struct packer *p = ctx;
@@ -162,8 +200,8 @@ static int quantise_row(void *ctx, size_t row)
 	for (int x = -1; x <= (int)g->w; x++) {
 		if (!(x & 1) && !(y & 1) && x >= 0 && y >= 0 && x < (int)S && y < (int)S)
 			continue; /* refined: pass 1 */
-		out[x + 1] = level_valid(p, l, x, y) ? (int32_t)llround(level_height(p, l, x, y) * inv)
-		                                     : global_predict(g, x, y);
+		double h;
+		out[x + 1] = level_target(p, l, x, y, &h) ? (int32_t)llround(h * inv) : global_predict(g, x, y);
 	}
 	return 0;
 }
@@ -303,7 +341,7 @@ static int encode_patch(void *ctx, size_t e)
 	}
 	size_t size;
 	struct relief_window win;
-	relief_patch_window(&p->lay, p->dem->width, p->dem->height, l, px, py, &win);
+	relief_patch_window(&p->lay, p->dem->width, p->dem->height, l, px, py, p->index.version >= 9, &win);
 	if ((ret = relief_patch_encode(geom, l == 0, &win, labels, residuals, &p->stream[e], &size)) < 0)
 		goto out;
 	if (size > UINT32_MAX) {
@@ -335,10 +373,10 @@ static int assemble(struct packer *p, uint8_t **out, size_t *out_size, struct re
 {
 	const struct relief_dem *dem = p->dem;
 	const uint32_t n = p->index.index_records, P = p->lay.geom.P;
-	const size_t be_per = relief_block_bytes_per_patch(RELIEF_FORMAT_VERSION, P);
+	const size_t be_per = relief_block_bytes_per_patch(p->index.version, P);
 	const size_t ne = relief_block_errors_per_patch(P), nr = relief_block_ranges_per_patch(P);
 	struct relief_header h = {
-		.version = RELIEF_FORMAT_VERSION, .patch_size = P, .levels = p->lay.levels, .ratio = p->lay.ratio,
+		.version = p->index.version, .patch_size = P, .levels = p->lay.levels, .ratio = p->lay.ratio,
 		.block_cells = RELIEF_BLOCK_CELLS, .width = dem->width, .height = dem->height, .size = p->lay.size,
 		.source_units = dem->source_units, .patch_count = p->lay.patch_count, .tolerance = p->lay.tolerance,
 		.origin_x = dem->origin_x, .origin_y = dem->origin_y, .spacing_x = dem->spacing_x,
@@ -444,6 +482,8 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 	int ret = check_dem(dem);
 	if (ret < 0)
 		return ret;
+	if (opts->version && opts->version != 8 && opts->version != RELIEF_FORMAT_VERSION)
+		return -EINVAL;
 	struct packer *p = calloc(1, sizeof(*p));
 	if (!p)
 		return -ENOMEM;
@@ -475,11 +515,28 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		ret = -ERANGE;
 		goto out;
 	}
-	p->index = (struct relief_header){ .version = RELIEF_FORMAT_VERSION, .patch_size = opts->patch,
+	p->index = (struct relief_header){ .version = opts->version ? opts->version : RELIEF_FORMAT_VERSION,
+	                                   .patch_size = opts->patch,
 	                                   .levels = p->lay.levels, .width = dem->width, .height = dem->height };
 	relief_index_windows(&p->index);
 	const uint32_t n = p->index.index_records;
 	p->orig = (struct relief_original){ dem->heights, dem->valid, dem->width, dem->height };
+	p->target = dem->heights;
+	if (valid < (uint64_t)dem->width * dem->height) {
+		p->target_own = malloc((size_t)dem->width * dem->height * sizeof(float));
+		p->ring = malloc((size_t)dem->width * dem->height * sizeof(uint16_t));
+		if (!p->target_own || !p->ring) {
+			ret = -ENOMEM;
+			goto out;
+		}
+		if ((ret = relief_fill_nodata(dem->width, dem->height, dem->heights, dem->valid, p->target_own, p->ring)) < 0)
+			goto out;
+		p->target = p->target_own;
+	}
+	for (uint32_t l = 0; l < p->lay.levels; l++) {
+		p->coded[l][0] = relief_level_coded(&p->lay, dem->width, l, p->index.version >= 9);
+		p->coded[l][1] = relief_level_coded(&p->lay, dem->height, l, p->index.version >= 9);
+	}
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
 	p->eps = calloc(n, sizeof(*p->eps));
@@ -537,6 +594,8 @@ out:
 	free(p->rec);
 	free(p->eps);
 	free(p->ranges);
+	free(p->target_own);
+	free(p->ring);
 	pthread_mutex_destroy(&p->lock);
 	free(p);
 	return ret;

@@ -22,6 +22,11 @@ struct relief_pack_options {
 	/* tests: quantise every level whole instead of its window around the data (the file
 	 * must come out the same byte for byte) */
 	bool whole_levels;
+	/* The format version to write: 0 = RELIEF_FORMAT_VERSION, or 8 for readers built
+	 * before version 9 (the windows without their rim: past the raster's east and south
+	 * edges some levels' first padding column then keeps the prediction). Others are
+	 * refused (-EINVAL). */
+	uint32_t version;
 };
 
 struct relief_pack_stats {

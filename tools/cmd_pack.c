@@ -22,6 +22,7 @@ static void pack_usage(FILE *f)
 		"      --patch N        patch size 65, 129 or 257 samples (default 129)\n"
 		"      --ratio K        tolerance growth per coarser level, 2 or 3 (default 2)\n"
 		"      --threads N      worker threads (default: every core)\n"
+		"      --format-version V  8 for readers built before version 9 (default: the current, 9)\n"
 		"  -q, --quiet          no progress bar and no summary\n"
 		IMPORT_OPTIONS_HELP
 		"Import options not given are read from INPUT.relief-import if it exists ([import] section).\n");
@@ -62,6 +63,7 @@ int cmd_pack(int argc, char **argv)
 		{ "patch", required_argument, NULL, 'p' },
 		{ "ratio", required_argument, NULL, 'r' },
 		{ "threads", required_argument, NULL, 'j' },
+		{ "format-version", required_argument, NULL, 'V' },
 		{ "quiet", no_argument, NULL, 'q' },
 		{ "help", no_argument, NULL, 'h' },
 		IMPORT_LONG_OPTIONS,
@@ -98,6 +100,10 @@ int cmd_pack(int argc, char **argv)
 			break;
 		case 'j':
 			if (!cli_parse_u32("pack", "--threads", optarg, 1, 1024, &po.threads))
+				return EXIT_USAGE;
+			break;
+		case 'V':
+			if (!cli_parse_u32("pack", "--format-version", optarg, 8, RELIEF_FORMAT_VERSION, &po.version))
 				return EXIT_USAGE;
 			break;
 		case 'q': quiet = true; break;

@@ -335,6 +335,7 @@ struct pack_need {
 	double quantised;    /* samples in every level's window (relief_pack_quantised_samples()) */
 	double patches;      /* in the tree, EMPTY ones included */
 	double entries;      /* with an index entry (the packer's per-patch records) */
+	double per_sample;   /* bytes per raster sample */
 	double bytes;
 };
 
@@ -358,8 +359,11 @@ static struct pack_need pack_need(const struct relief_dem *d, uint32_t patch)
 		n.entries = h.index_records;
 		n.quantised = (double)relief_pack_quantised_samples(&lay, d->width, d->height);
 	}
-	/* Calibrated (December 2026): a 1048576 x 2 strip 0.79 GB measured, 8193^2 1.16 GB. */
-	n.bytes = 5.0 * n.quantised + 12.0 * dims[0] * dims[1] + 100.0 * n.entries + 64e6;
+	/* Calibrated (December 2026): a 1048576 x 2 strip 0.79 GB measured, 8193^2 1.16 GB.
+	 * With no-data the packer also holds the fill and its rings (common/fill.h): 6 more. */
+	const size_t samples = (size_t)d->width * d->height;
+	n.per_sample = d->valid && memchr(d->valid, 0, samples) ? 18.0 : 12.0;
+	n.bytes = 5.0 * n.quantised + n.per_sample * dims[0] * dims[1] + 100.0 * n.entries + 64e6;
 	return n;
 }
 
@@ -373,10 +377,10 @@ void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem
 	fprintf(stderr,
 	        "relief %s: %s: %s: this %u x %u raster makes a quadtree of %.0f patches (%.0f of them over the "
 	        "raster) over a %.0f x %.0f grid, whose levels quantise %.0f samples around the data (the finest "
-	        "%.0f x %.0f), and packing that holds about %.1f GB (5 bytes per quantised sample, 12 per raster "
+	        "%.0f x %.0f), and packing that holds about %.1f GB (5 bytes per quantised sample, %.0f per raster "
 	        "sample, 100 per patch over the raster)%s; see docs/format.md, \"Known limits\"\n",
 	        cmd, path, why, d->width, d->height, n.patches, n.entries, n.side, n.side, n.quantised, n.window[0],
-	        n.window[1], n.bytes / 1e9, where);
+	        n.window[1], n.bytes / 1e9, n.per_sample, where);
 }
 
 bool dem_pack_fits(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch)

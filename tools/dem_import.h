@@ -36,7 +36,7 @@ int dem_import(const char *path, const struct dem_import_options *o, struct reli
 void dem_report_dropped(const char *cmd, const char *path, const struct relief_dem *d);
 /* Says on stderr "relief CMD: PATH: WHY: ..." with the quadtree, the quantised window and
  * what packing raster d at `patch` samples a side holds at peak (about 6 bytes per
- * quantised sample, 12 per raster sample and 100 per patch of the tree, as measured:
+ * quantised sample, 12 per raster sample (18 with no-data) and 100 per patch of the tree, as measured:
  * docs/format.md, "Known limits"), and the memory `have` (bytes) when it is above 0, as
  * "where WHO N GB". */
 void dem_pack_explain(const char *cmd, const char *path, const struct relief_dem *d, uint32_t patch, const char *why,

@@ -69,6 +69,8 @@ check info-json 0 "$relief" info "$tmp/ps.relief" --json
 expect_text info-json-levels '"levels":[{"level":0'
 # the block error codes' unit: tolerance / 64 at 4 m (the largest error, ~2,600 m, fits)
 expect_text info-json-unit '"block_error_unit_m":0.0625,'
+# the format version: the current one, or 8 on request for older readers; others refused
+expect_text info-json-version '"version":9,'
 # Blocks with a valid sample (what a renderer tessellates): all of Puget Sound's, not all of
 # Luxembourg's (no-data outside the border, padding beside it).
 blocks_ok() { # name want(all|some) json
@@ -86,6 +88,11 @@ check info-json-lux 0 "$relief" info "$tmp/lux.relief" --json
 blocks_ok info-json-blocks-lux some "$LAST_OUT"
 expect_text info-json-drawn '"err_max_m":'
 expect_text info-json-drawn '"drawn_err_max_m":'
+check pack-format-8 0 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/lux8.relief" -t 1 --format-version 8 -q
+check info-format-8 0 "$relief" info "$tmp/lux8.relief"
+expect_text info-format-8-named "relief format 8,"
+check pack-format-7 2 "$relief" pack "$data/luxembourg_elev.tif" "$tmp/lux7.relief" -t 1 --format-version 7
+expect_text pack-format-7-named "--format-version: '7' is not a whole number in [8, 9]"
 # A version-6 file has no drawn error: info says it shows the bound from Err(P).
 check info-v6 0 "$relief" info "$data/alps-crop-140x100-v6.relief"
 expect_text info-v6-bound "format 6 stores no E0(P)"

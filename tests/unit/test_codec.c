@@ -245,31 +245,44 @@ static void test_patch_windows(void **state)
 	struct relief_layout lay;
 	assert_int_equal(relief_layout_init(&lay, 129, 4, 2, 1.0), 0);
 	struct relief_window w;
-	relief_patch_window(&lay, 647, 647, 3, 5, 0, &w); /* level 3: columns 640..768, 647 valid */
+	relief_patch_window(&lay, 647, 647, 3, 5, 0, false, &w); /* level 3: columns 640..768, 647 valid */
 	assert_int_equal(w.x0, -1);
 	assert_int_equal(w.x1, 8);   /* 648 - 640 */
 	assert_int_equal(w.y1, 130); /* rows 0..128: all inside */
 	assert_true(!w.ring_west && w.ring_north);
-	relief_patch_window(&lay, 647, 647, 3, 4, 5, &w);
+	relief_patch_window(&lay, 647, 647, 3, 4, 5, false, &w);
 	assert_int_equal(w.x1, 130);
 	assert_int_equal(w.y1, 8);
-	relief_patch_window(&lay, 647, 647, 2, 2, 2, &w); /* level 2: 324 samples, columns from 256 */
+	relief_patch_window(&lay, 647, 647, 2, 2, 2, false, &w); /* level 2: 324 samples, columns from 256 */
 	assert_int_equal(w.x1, 68);
 	assert_int_equal(w.y1, 68);
-	relief_patch_window(&lay, 647, 647, 1, 1, 0, &w); /* the last column holds the grid's ring */
+	relief_patch_window(&lay, 647, 647, 1, 1, 0, false, &w); /* the last column holds the grid's ring */
 	assert_int_equal(w.x1, 130);
-	relief_patch_window(&lay, 647, 647, 0, 0, 0, &w); /* the root: 81 samples (647 / 8), no ring */
+	relief_patch_window(&lay, 647, 647, 0, 0, 0, false, &w); /* the root: 81 samples (647 / 8), no ring */
 	assert_int_equal(w.x0, 0);
 	assert_int_equal(w.y0, 0);
 	assert_int_equal(w.x1, 81);
 	assert_int_equal(w.y1, 81);
 	assert_true(!w.ring_west && !w.ring_north);
-	relief_patch_window(&lay, 647, 647, 2, 0, 0, &w);
+	relief_patch_window(&lay, 647, 647, 2, 0, 0, false, &w);
 	assert_int_equal(w.x1, 130);
 	assert_true(w.ring_west && w.ring_north);
-	relief_patch_window(&lay, 645, 1025, 3, 5, 0, &w); /* 645 valid: the first even beyond is 646 */
+	relief_patch_window(&lay, 645, 1025, 3, 5, 0, false, &w); /* 645 valid: the first even beyond is 646 */
 	assert_int_equal(w.x1, 6);
 	assert_int_equal(w.y1, 130);
+	/* Format version 9 (rim): the first sample past the extent is coded too, so where the
+	 * extent's level width is even the window grows by two (rounded up to even again). */
+	relief_patch_window(&lay, 647, 647, 3, 5, 0, true, &w); /* 647 odd: 648 already coded */
+	assert_int_equal(w.x1, 8);
+	relief_patch_window(&lay, 647, 647, 2, 2, 2, true, &w); /* 324 even: to 326 */
+	assert_int_equal(w.x1, 70);
+	assert_int_equal(w.y1, 70);
+	relief_patch_window(&lay, 647, 647, 0, 0, 0, true, &w); /* the root: 81 + 1 */
+	assert_int_equal(w.x1, 82);
+	assert_int_equal(w.y1, 82);
+	assert_int_equal(relief_level_coded(&lay, 647, 1, false), 162);
+	assert_int_equal(relief_level_coded(&lay, 647, 1, true), 164);
+	assert_int_equal(relief_level_coded(&lay, 1025, 0, true), 130); /* the root's east ring */
 }
 
 static void test_analyse_rejects_foreign_child(void **state)

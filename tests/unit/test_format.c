@@ -317,10 +317,11 @@ static void test_open_from_disk(void **state)
  * level, and the version-3 streams must be smaller (those at the east and south edges
  * skip the padding beyond 140 x 100 in the 257 x 257 grid). The file written now is
  * version 4 (v3 below), whose streams are version 3's. */
-/* The Mont Blanc crop packed now (*image, *size, opened as *now) and the older file `old`
- * in tests/data packed from it with the same options (opened as *then). */
-static void open_crop_pair(const char *old, uint8_t **image, size_t *size, struct relief_file **then,
-                           struct relief_file **now)
+/* The Mont Blanc crop packed now as format `version` (0: the current one; *image, *size,
+ * opened as *now) and the older file `old` in tests/data packed from it with the same
+ * options (opened as *then; NULL: none). */
+static void open_crop_pair(const char *old, uint32_t version, uint8_t **image, size_t *size,
+                           struct relief_file **then, struct relief_file **now)
 {
 	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
 	                                .raw_type = "float32" };
@@ -328,12 +329,34 @@ static void open_crop_pair(const char *old, uint8_t **image, size_t *size, struc
 	char err[512] = "";
 	if (dem_import(test_data("alps-crop-140x100.f32"), &o, &dem, err, sizeof(err)) < 0)
 		fail_msg("import: %s", err);
-	struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0 };
+	struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0, .version = version };
 	assert_int_equal(relief_pack_memory(&dem, &po, image, size, NULL), 0);
 	relief_dem_finish(&dem);
-	if (relief_file_open(test_data(old), then, err, sizeof(err)) < 0)
+	if (old && relief_file_open(test_data(old), then, err, sizeof(err)) < 0)
 		fail_msg("%s: %s", old, err);
 	assert_int_equal(relief_file_open_memory(*image, *size, now, err, sizeof(err)), 0);
+}
+
+/* Every level of a and b decodes to the same heights (NaN where no-data, in both) and the
+ * same validity. */
+static void assert_same_levels(const struct relief_file *a, const struct relief_file *b)
+{
+	assert_int_equal(a->hdr.levels, b->hdr.levels);
+	for (uint32_t l = 0; l < a->hdr.levels; l++) {
+		uint32_t w, h;
+		relief_level_extent(&b->hdr, l, &w, &h);
+		size_t n = (size_t)w * h;
+		float *ha = malloc(sizeof(float) * n), *hb = malloc(sizeof(float) * n);
+		uint8_t *ma = malloc(n), *mb = malloc(n);
+		assert_int_equal(relief_decode_level(a, l, 1, ha, ma), 0);
+		assert_int_equal(relief_decode_level(b, l, 1, hb, mb), 0);
+		assert_memory_equal(ha, hb, sizeof(float) * n);
+		assert_memory_equal(ma, mb, n);
+		free(ha);
+		free(hb);
+		free(ma);
+		free(mb);
+	}
 }
 
 static void test_version2_still_read(void **state)
@@ -341,32 +364,19 @@ static void test_version2_still_read(void **state)
 	uint8_t *v3img;
 	size_t v3size;
 	struct relief_file *v2, *v3;
-	open_crop_pair("alps-crop-140x100-v2.relief", &v3img, &v3size, &v2, &v3);
+	/* version 8: the windows of versions 3 to 8 (version 9 codes a column more) */
+	open_crop_pair("alps-crop-140x100-v2.relief", 8, &v3img, &v3size, &v2, &v3);
 	assert_int_equal(v2->hdr.version, 2);
-	assert_int_equal(v3->hdr.version, RELIEF_FORMAT_VERSION);
+	assert_int_equal(v3->hdr.version, 8);
 	assert_int_equal(v2->hdr.levels, 3);
 	assert_int_equal(v3->hdr.levels, 3);
 	struct stat st;
 	assert_int_equal(stat(test_data("alps-crop-140x100-v2.relief"), &st), 0);
 	print_message("version 2: %lld bytes (streams %llu), version %u: %zu bytes (streams %llu)\n", (long long)st.st_size,
-	              (unsigned long long)v2->hdr.data_size, RELIEF_FORMAT_VERSION, v3size,
+	              (unsigned long long)v2->hdr.data_size, v3->hdr.version, v3size,
 	              (unsigned long long)v3->hdr.data_size);
 	assert_true(v3->hdr.data_size < v2->hdr.data_size);
-	for (uint32_t l = 0; l < 3; l++) {
-		uint32_t w, h;
-		relief_level_extent(&v3->hdr, l, &w, &h);
-		size_t n = (size_t)w * h;
-		float *h2 = malloc(sizeof(float) * n), *h3 = malloc(sizeof(float) * n);
-		uint8_t *m2 = malloc(n), *m3 = malloc(n);
-		assert_int_equal(relief_decode_level(v2, l, 1, h2, m2), 0);
-		assert_int_equal(relief_decode_level(v3, l, 1, h3, m3), 0);
-		assert_memory_equal(h2, h3, sizeof(float) * n);
-		assert_memory_equal(m2, m3, n);
-		free(h2);
-		free(h3);
-		free(m2);
-		free(m3);
-	}
+	assert_same_levels(v2, v3);
 	/* Block errors: version 2 stored them against the patch's own surface, and reading adds
 	 * Err(P) (a bound against the original); the current version measures them against
 	 * the finest decoded surface, which is within the finest tolerance of the original.
@@ -508,11 +518,14 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
 	return empty;
 }
 
-/* Versions 4 to 7 are still read. tests/data/alps-crop-140x100-v4.relief was written by the
+/* Versions 4 to 8 are still read. tests/data/alps-crop-140x100-v4.relief was written by the
  * last version-4 packer (commit 8180fba), alps-crop-140x100-v5.relief by the last version-5
  * packer (commit 620b9bf), alps-crop-140x100-v6.relief by the last version-6 packer (commit
- * 01fc8e7), alps-crop-140x100-v7.relief by the last version-7 packer (commit d90d6fe), all
- * from the Mont Blanc crop with the options of the version-2 file above.
+ * 01fc8e7), alps-crop-140x100-v7.relief by the last version-7 packer (commit d90d6fe),
+ * alps-crop-140x100-v8.relief by the last version-8 packer (commit d3551bc), all from the
+ * Mont Blanc crop with the options of the version-2 file above, and compared with the
+ * crop packed now as version 8 (the windows of version 9 code a column more:
+ * test_version9_rim() below).
  * Version 5 dropped the block records of EMPTY patches (12 of this file's 21), which read
  * as zero bytes, what version 4 stored for them; version 6 drops their index records too
  * (all 12 lie outside the raster's windows), which read as what earlier versions stored;
@@ -520,7 +533,7 @@ static uint32_t assert_same_patches(const struct relief_file *old, const struct 
  * codes the block errors in a unit of its own (assert_same_block_bounds(): the older files
  * hold 9 errors as +infinity). So the same input packed now reads the same for every patch
  * but those, and the files differ by those records. */
-static void test_versions4_to_7_still_read(void **state)
+static void test_versions4_to_8_still_read(void **state)
 {
 	const struct {
 		const char *name;
@@ -529,14 +542,15 @@ static void test_versions4_to_7_still_read(void **state)
 	} olds[] = { { "alps-crop-140x100-v4.relief", 4, true },
 	             { "alps-crop-140x100-v5.relief", 5, false },
 	             { "alps-crop-140x100-v6.relief", 6, false },
-	             { "alps-crop-140x100-v7.relief", 7, false } };
+	             { "alps-crop-140x100-v7.relief", 7, false },
+	             { "alps-crop-140x100-v8.relief", 8, false } };
 	for (size_t i = 0; i < sizeof(olds) / sizeof(olds[0]); i++) {
 		uint8_t *img_now;
 		size_t size_now;
 		struct relief_file *old, *now;
-		open_crop_pair(olds[i].name, &img_now, &size_now, &old, &now);
+		open_crop_pair(olds[i].name, 8, &img_now, &size_now, &old, &now);
 		assert_int_equal(old->hdr.version, olds[i].version);
-		assert_int_equal(now->hdr.version, RELIEF_FORMAT_VERSION);
+		assert_int_equal(now->hdr.version, 8);
 		assert_int_equal(old->hdr.index_records, olds[i].version < 6 ? old->hdr.patch_count : 21 - 12);
 		uint32_t empty = assert_same_patches(old, now);
 		assert_int_equal(empty, 12);
@@ -555,13 +569,68 @@ static void test_versions4_to_7_still_read(void **state)
 		                            (int64_t)now->hdr.block_patches * (int64_t)per;
 		const int64_t diff = (int64_t)st.st_size - (int64_t)size_now;
 		print_message("version %u: %lld bytes, version %u: %zu bytes (%u empty patches; records %lld bytes then, %lld now)\n",
-		              olds[i].version, (long long)st.st_size, RELIEF_FORMAT_VERSION, size_now, empty,
+		              olds[i].version, (long long)st.st_size, now->hdr.version, size_now, empty,
 		              (long long)records_then, (long long)records_now);
 		assert_true(diff > records_then - records_now - 16 && diff < records_then - records_now + 16);
 		relief_file_close(old);
 		relief_file_close(now);
 		free(img_now);
 	}
+}
+
+/* Version 9 codes the first sample past the raster's extent at every level (the rim: its
+ * windows, relief_patch_window()), where version 8 left some levels' to the prediction; the
+ * packer puts it at the edge's height (docs/codec.md, "No-data"). The crop packed both ways:
+ * the same tree, records' flags and masks, every valid sample of every level decoded the
+ * same, and the windows of version 9 at least those of version 8, larger somewhere. A
+ * packer asked for another version refuses. */
+static void test_version9_rim(void **state)
+{
+	uint8_t *img8, *img9;
+	size_t size8, size9;
+	struct relief_file *f8, *f9;
+	open_crop_pair(NULL, 8, &img8, &size8, NULL, &f8);
+	open_crop_pair(NULL, 0, &img9, &size9, NULL, &f9);
+	assert_int_equal(f8->hdr.version, 8);
+	assert_int_equal(f9->hdr.version, 9);
+	assert_int_equal(f8->hdr.patch_count, f9->hdr.patch_count);
+	assert_int_equal(f8->hdr.index_records, f9->hdr.index_records);
+	uint32_t wider = 0;
+	for (uint32_t id = 0; id < f9->hdr.patch_count; id++) {
+		struct relief_patch_record a, b;
+		relief_file_record(f8, id, &a);
+		relief_file_record(f9, id, &b);
+		assert_int_equal(a.flags, b.flags);
+		if (a.flags & RELIEF_PATCH_EMPTY)
+			continue;
+		struct relief_window w8, w9;
+		relief_file_window(f8, id, &w8);
+		relief_file_window(f9, id, &w9);
+		assert_true(w9.x0 == w8.x0 && w9.y0 == w8.y0 && w9.x1 >= w8.x1 && w9.y1 >= w8.y1);
+		wider += w9.x1 > w8.x1 || w9.y1 > w8.y1;
+	}
+	assert_true(wider > 0);
+	assert_same_levels(f8, f9);
+	print_message("crop: version 8 %zu bytes, version 9 %zu bytes; %u of %u patches with wider windows\n", size8,
+	              size9, wider, f9->hdr.index_records);
+	relief_file_close(f8);
+	relief_file_close(f9);
+	free(img8);
+	free(img9);
+	struct relief_dem dem;
+	struct dem_import_options o = { .has_spacing = true, .spacing = 92.7, .raw_width = 140, .raw_height = 100,
+	                                .raw_type = "float32" };
+	char err[512] = "";
+	assert_int_equal(dem_import(test_data("alps-crop-140x100.f32"), &o, &dem, err, sizeof(err)), 0);
+	for (uint32_t v = 1; v <= RELIEF_FORMAT_VERSION + 1; v++) {
+		struct relief_pack_options po = { .patch = 65, .ratio = 2, .tolerance = 1.0, .version = v };
+		uint8_t *packed = NULL;
+		size_t size = 0;
+		int ret = relief_pack_memory(&dem, &po, &packed, &size, NULL);
+		assert_int_equal(ret, v == 8 || v == RELIEF_FORMAT_VERSION ? 0 : -EINVAL);
+		free(packed);
+	}
+	relief_dem_finish(&dem);
 }
 
 /* Which blocks of a patch have a valid sample: a sample on a block corner belongs to the
@@ -602,7 +671,8 @@ int main(void)
 		cmocka_unit_test(test_inverted_block_range),
 		cmocka_unit_test(test_open_from_disk),
 		cmocka_unit_test(test_version2_still_read),
-		cmocka_unit_test(test_versions4_to_7_still_read),
+		cmocka_unit_test(test_versions4_to_8_still_read),
+		cmocka_unit_test(test_version9_rim),
 		cmocka_unit_test(test_mask_blocks),
 	};
 	return cmocka_run_group_tests(tests, setup, teardown);

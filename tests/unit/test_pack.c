@@ -3,13 +3,15 @@
  * patches agree bit for bit on shared samples; Err(P) bounds the patch against the
  * original and the block errors bound each simplified block against the finest decoded
  * surface (checked with an independent evaluator of the triangulated surfaces);
- * packing is deterministic across thread counts; no-data stays no-data; quantising each
+ * packing is deterministic across thread counts; no-data stays no-data, and the no-data
+ * samples beside the data decode within the terrain around them; quantising each
  * level over a window around the data changes no byte. */
 #include <errno.h>
 #include <math.h>
 
 #include "../data_load.h"
 #include "decode.h"
+#include "fill.h"
 #include "format.h"
 #include "pack.h"
 #include "patch_error.h"
@@ -543,6 +545,143 @@ static void test_nodata_stays_nodata(void **state)
 	relief_dem_finish(&p.dem);
 }
 
+/* relief_fill_nodata() on a raster with two valid islands: valid heights copied bit for
+ * bit, each sample's ring its Chebyshev distance to the nearest valid sample, the first
+ * ring within [min, max] of its valid 8-neighbours and every fill within the valid range;
+ * a raster without a valid sample is refused. */
+static void test_fill_rings(void **state)
+{
+	enum { W = 23, H = 17 };
+	float in[W * H], out[W * H];
+	uint8_t valid[W * H];
+	uint16_t ring[W * H];
+	for (uint32_t i = 0; i < W * H; i++) {
+		uint32_t x = i % W, y = i / W;
+		valid[i] = (x >= 3 && x <= 5 && y >= 4 && y <= 6) || (x == 19 && y == 12);
+		in[i] = valid[i] ? (float)(100.0 + 7.0 * x - 3.0 * y + (x == 19 ? 900.0 : 0.0)) : NAN;
+	}
+	assert_int_equal(relief_fill_nodata(W, H, in, valid, out, ring), 0);
+	for (uint32_t i = 0; i < W * H; i++) {
+		int x = (int)(i % W), y = (int)(i / W);
+		if (valid[i]) {
+			assert_memory_equal(&out[i], &in[i], sizeof(float));
+			assert_int_equal(ring[i], 0);
+			continue;
+		}
+		int d = INT32_MAX;
+		double lo = INFINITY, hi = -INFINITY;
+		for (uint32_t j = 0; j < W * H; j++)
+			if (valid[j]) {
+				int dx = abs((int)(j % W) - x), dy = abs((int)(j / W) - y), c = dx > dy ? dx : dy;
+				d = c < d ? c : d;
+				if (c == 1) {
+					lo = fmin(lo, in[j]);
+					hi = fmax(hi, in[j]);
+				}
+			}
+		assert_int_equal(ring[i], d);
+		assert_true(out[i] >= 100.0f + 7 * 3 - 3 * 6 && out[i] <= 100.0f + 7 * 19 - 3 * 12 + 900);
+		if (d == 1)
+			assert_true(out[i] >= lo && out[i] <= hi);
+	}
+	memset(valid, 0, sizeof(valid));
+	assert_int_equal(relief_fill_nodata(W, H, in, valid, out, NULL), -ENODATA);
+}
+
+/* Where a renderer draws towards no-data: the half cell beyond a valid sample leans
+ * towards its no-data neighbour's decoded value (a fragment is kept where its nearest
+ * sample is valid), so at every level every no-data sample with a valid 4-neighbour must
+ * lie within the terrain around it: within delta_l of [min, max] of the valid finest
+ * samples within two of the level's spacings (Chebyshev) of it, or, past the raster's
+ * east or south edge, of its nearest raster sample. Checked where the streams code the
+ * sample (relief_level_coded()): in format version 9 every one. Version 8 (which the
+ * packer still writes on request) leaves, past the raster's edge, the first padding column
+ * of a level whose extent is even in no stream (it copies a coarser level's, the root's
+ * MED copying its last coded column): those are counted, not checked (docs/codec.md,
+ * "No-data"). Until the packer filled the rim (common/fill.h) the no-data samples took
+ * the predictions: Luxembourg's western and northern rims reached 0 m, up to 548 m below
+ * the data beside them. */
+static void rim_within_terrain(struct packed *p, const char *name, double tol, uint32_t patch, uint32_t version)
+{
+	struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = tol, .version = version };
+	assert_int_equal(relief_pack_memory(&p->dem, &o, &p->img, &p->size, NULL), 0);
+	char err[256];
+	if (relief_file_open_memory(p->img, p->size, &p->f, err, sizeof(err)) < 0)
+		fail_msg("%s: %s", name, err);
+	const struct relief_layout *lay = &p->f->layout;
+	const uint32_t P = lay->geom.P, E = lay->geom.E, W = p->dem.width, H = p->dem.height;
+	int32_t **blocks = decode_tree(p->f);
+	uint64_t checked = 0, skipped = 0;
+	double worst = 0.0; /* metres outside the allowed range, at most 0 */
+	for (uint32_t l = 0; l < lay->levels; l++) {
+		const uint32_t side = 1u << l, S = relief_level_size(lay, l);
+		const uint64_t step = 1ull << (lay->levels - 1 - l);
+		const bool rim = p->f->hdr.version >= 9;
+		const uint32_t coded_w = relief_level_coded(lay, W, l, rim), coded_h = relief_level_coded(lay, H, l, rim);
+		for (uint32_t py = 0; py < side; py++)
+			for (uint32_t px = 0; px < side; px++) {
+				const int32_t *b = blocks[l] + ((size_t)py * side + px) * E * E;
+				for (uint32_t y = 0; y < P; y++)
+					for (uint32_t x = 0; x < P; x++) {
+						const int64_t gx = (int64_t)px * (P - 1) + x, gy = (int64_t)py * (P - 1) + y;
+						const int64_t X = gx * (int64_t)step, Y = gy * (int64_t)step;
+#define VALID_AT(a, b) ((a) >= 0 && (b) >= 0 && (a) < (int64_t)W && (b) < (int64_t)H && \
+	                p->dem.valid[(size_t)(b) * W + (size_t)(a)])
+						if (VALID_AT(X, Y) || gx >= S || gy >= S)
+							continue;
+						if (!VALID_AT(X - (int64_t)step, Y) && !VALID_AT(X + (int64_t)step, Y) &&
+						    !VALID_AT(X, Y - (int64_t)step) && !VALID_AT(X, Y + (int64_t)step))
+							continue;
+						if (gx >= coded_w || gy >= coded_h) {
+							skipped++;
+							continue;
+						}
+						const int64_t cx = X < W ? X : W - 1, cy = Y < H ? Y : H - 1, r = 2 * (int64_t)step;
+						double lo = INFINITY, hi = -INFINITY;
+						for (int64_t v = cy - r; v <= cy + r; v++)
+							for (int64_t u = cx - r; u <= cx + r; u++)
+								if (VALID_AT(u, v)) {
+									lo = fmin(lo, p->dem.heights[(size_t)v * W + (size_t)u]);
+									hi = fmax(hi, p->dem.heights[(size_t)v * W + (size_t)u]);
+								}
+#undef VALID_AT
+						const double h = 2.0 * lay->delta[l] * b[(y + 1) * E + x + 1];
+						const double out = fmax(lo - lay->delta[l] - h, h - hi - lay->delta[l]);
+						if (out > 0)
+							fail_msg("%s level %u: no-data sample (%lld, %lld) decodes to %.2f m, beside "
+							         "valid terrain at %.2f..%.2f m", name, l, (long long)X, (long long)Y,
+							         h, lo, hi);
+						worst = fmax(worst, out);
+						checked++;
+					}
+			}
+		free(blocks[l]);
+	}
+	free(blocks);
+	print_message("%s, version %u: %llu no-data samples beside the data checked, %llu past the edge in no stream\n",
+	              name, p->f->hdr.version, (unsigned long long)checked, (unsigned long long)skipped);
+	assert_true(checked > 0);
+	if (p->f->hdr.version >= 9)
+		assert_int_equal(skipped, 0);
+	unpack(p);
+}
+
+static void test_nodata_rim_at_data_height(void **state)
+{
+	struct packed p = { 0 };
+	for (uint32_t version = 8; version <= 9; version++) {
+		test_dem_load(DEM_LUX, &p.dem);
+		rim_within_terrain(&p, "Luxembourg", 1.0, 65, version);
+		relief_dem_finish(&p.dem);
+		test_dem_load(DEM_ALPS, &p.dem); /* 647^2 in a 1025^2 grid: padding east and south */
+		rim_within_terrain(&p, "Mont Blanc", 1.0, 129, version);
+		relief_dem_finish(&p.dem);
+		synthetic_dem(&p.dem, 700, 300);
+		rim_within_terrain(&p, "synthetic 700 x 300 with holes", 0.5, 65, version);
+		relief_dem_finish(&p.dem);
+	}
+}
+
 static void test_bad_inputs(void **state)
 {
 	struct relief_dem dem = { 0 };
@@ -592,6 +731,8 @@ int main(void)
 		cmocka_unit_test(test_drawn_error_synthetic),
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_nodata_stays_nodata),
+		cmocka_unit_test(test_fill_rings),
+		cmocka_unit_test(test_nodata_rim_at_data_height),
 		cmocka_unit_test(test_windows_change_nothing),
 		cmocka_unit_test(test_index_follows_raster),
 		cmocka_unit_test(test_bad_inputs),
