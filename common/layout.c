@@ -61,9 +61,10 @@ void relief_patch_window(const struct relief_layout *lay, uint32_t width, uint32
                          uint32_t py, bool rim, struct relief_window *win)
 {
 	if (l == 0) {
-		/* The root's no-data samples, the whole ring included, take the MED prediction
-		 * (residual 0), which its decoder computes in raster order from what came before:
-		 * any sample outside the extent may be skipped. */
+		/* The root codes the samples inside the extent (with the rim, and the first past
+		 * it); every other one, its west and north ring included, takes the MED prediction
+		 * (residual 0), which its decoder computes in raster order from what came before,
+		 * so any sample outside a rectangle from (0, 0) may be skipped. */
 		*win = (struct relief_window){ 0, 0, (int32_t)relief_level_coded(lay, width, 0, rim),
 		                               (int32_t)relief_level_coded(lay, height, 0, rim), false, false };
 		return;

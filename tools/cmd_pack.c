@@ -22,7 +22,7 @@ static void pack_usage(FILE *f)
 		"      --patch N        patch size 65, 129 or 257 samples (default 129)\n"
 		"      --ratio K        tolerance growth per coarser level, 2 or 3 (default 2)\n"
 		"      --threads N      worker threads (default: every core)\n"
-		"      --format-version V  8 for readers built before version 9 (default: the current, 9)\n"
+		"      --format-version V  file format to write: 9 (default) or 8, for older readers\n"
 		"  -q, --quiet          no progress bar and no summary\n"
 		IMPORT_OPTIONS_HELP
 		"Import options not given are read from INPUT.relief-import if it exists ([import] section).\n");

@@ -601,6 +601,13 @@ static void test_fill_rings(void **state)
  * "No-data"). Until the packer filled the rim (common/fill.h) the no-data samples took
  * the predictions: Luxembourg's western and northern rims reached 0 m, up to 548 m below
  * the data beside them. */
+/* Whether finest sample (x, y) is a valid raster sample. */
+static bool valid_at(const struct relief_dem *d, int64_t x, int64_t y)
+{
+	return x >= 0 && y >= 0 && x < (int64_t)d->width && y < (int64_t)d->height &&
+	       d->valid[(size_t)y * d->width + (size_t)x];
+}
+
 static void rim_within_terrain(struct packed *p, const char *name, double tol, uint32_t patch, uint32_t version)
 {
 	struct relief_pack_options o = { .patch = patch, .ratio = 2, .tolerance = tol, .version = version };
@@ -625,12 +632,10 @@ static void rim_within_terrain(struct packed *p, const char *name, double tol, u
 					for (uint32_t x = 0; x < P; x++) {
 						const int64_t gx = (int64_t)px * (P - 1) + x, gy = (int64_t)py * (P - 1) + y;
 						const int64_t X = gx * (int64_t)step, Y = gy * (int64_t)step;
-#define VALID_AT(a, b) ((a) >= 0 && (b) >= 0 && (a) < (int64_t)W && (b) < (int64_t)H && \
-	                p->dem.valid[(size_t)(b) * W + (size_t)(a)])
-						if (VALID_AT(X, Y) || gx >= S || gy >= S)
+						if (valid_at(&p->dem, X, Y) || gx >= S || gy >= S)
 							continue;
-						if (!VALID_AT(X - (int64_t)step, Y) && !VALID_AT(X + (int64_t)step, Y) &&
-						    !VALID_AT(X, Y - (int64_t)step) && !VALID_AT(X, Y + (int64_t)step))
+						if (!valid_at(&p->dem, X - (int64_t)step, Y) && !valid_at(&p->dem, X + (int64_t)step, Y) &&
+						    !valid_at(&p->dem, X, Y - (int64_t)step) && !valid_at(&p->dem, X, Y + (int64_t)step))
 							continue;
 						if (gx >= coded_w || gy >= coded_h) {
 							skipped++;
@@ -640,11 +645,10 @@ static void rim_within_terrain(struct packed *p, const char *name, double tol, u
 						double lo = INFINITY, hi = -INFINITY;
 						for (int64_t v = cy - r; v <= cy + r; v++)
 							for (int64_t u = cx - r; u <= cx + r; u++)
-								if (VALID_AT(u, v)) {
+								if (valid_at(&p->dem, u, v)) {
 									lo = fmin(lo, p->dem.heights[(size_t)v * W + (size_t)u]);
 									hi = fmax(hi, p->dem.heights[(size_t)v * W + (size_t)u]);
 								}
-#undef VALID_AT
 						const double h = 2.0 * lay->delta[l] * b[(y + 1) * E + x + 1];
 						const double out = fmax(lo - lay->delta[l] - h, h - hi - lay->delta[l]);
 						if (out > 0)
