@@ -114,9 +114,10 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
  * samples, blends of them (morphing) or a coarser patch's samples along a shared border
  * (seals), which lie in the coarser ancestor's block there. Outside the sample grid: the
  * file's highest height plus the largest quantisation tolerance (delta_0), a bound on
- * every reconstructed sample of every level (a no-data sample takes its parent's value, a
- * mean of its neighbours' or, at the root, one of its neighbours' or a value between
- * them: docs/codec.md, "No-data"), so that a ray from there meets the edge curtains'
+ * every reconstructed sample of every level (a no-data sample takes the packer's fill,
+ * a mean of valid heights, quantised within delta_l, or its parent's value, a mean of its
+ * neighbours' or, at the root, one of its neighbours' or a value between them:
+ * docs/codec.md, "No-data"), so that a ray from there meets the edge curtains'
  * outer faces or the upper side first. A camera above the bound sees the upper side of
  * the surface first along every ray, so back faces can be culled (relief_terrain_draw()). */
 double relief_surface_height_bound(const struct relief_file *f, double x, double y);

@@ -1,5 +1,6 @@
 /* Building a .relief image from an elevation model: pyramid by decimation, per-level
- * quantisation over a window around the data (no-data samples predicted), patch coding,
+ * quantisation over a window around the data (no-data samples beside the data filled,
+ * the rest predicted: common/fill.h), patch coding,
  * error bounds, container assembly. */
 #pragma once
 
