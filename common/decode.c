@@ -1,5 +1,6 @@
 #include <errno.h>
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -130,7 +131,8 @@ void relief_level_extent(const struct relief_header *h, uint32_t level, uint32_t
 	*hgt = ((h->height - 1) >> shift) + 1;
 }
 
-int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned threads, float *heights, uint8_t *mask)
+static int decode_level(const struct relief_file *f, uint32_t level, unsigned threads, float *heights, uint8_t *mask,
+                        bool nodata_nan)
 {
 	int32_t *blocks;
 	int ret = relief_decode_level_blocks(f, level, threads, &blocks);
@@ -167,7 +169,7 @@ int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned th
 					if (gx >= w || (x == P - 1 && px + 1 < side))
 						continue;
 					bool valid = pmask[y * P + x];
-					heights[gy * w + gx] = valid ? (float)(q2 * b[(y + 1) * E + x + 1]) : NAN;
+					heights[gy * w + gx] = valid || !nodata_nan ? (float)(q2 * b[(y + 1) * E + x + 1]) : NAN;
 					if (mask)
 						mask[gy * w + gx] = valid;
 				}
@@ -176,4 +178,15 @@ int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned th
 	free(pmask);
 	free(blocks);
 	return 0;
+}
+
+int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned threads, float *heights, uint8_t *mask)
+{
+	return decode_level(f, level, threads, heights, mask, true);
+}
+
+int relief_decode_level_drawn(const struct relief_file *f, uint32_t level, unsigned threads, float *heights,
+                              uint8_t *mask)
+{
+	return decode_level(f, level, threads, heights, mask, false);
 }

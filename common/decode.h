@@ -39,3 +39,8 @@ int relief_decode_level_blocks(const struct relief_file *f, uint32_t level, unsi
 void relief_level_extent(const struct relief_header *h, uint32_t level, uint32_t *w, uint32_t *hgt);
 int relief_decode_level(const struct relief_file *f, uint32_t level, unsigned threads, float *heights,
                         uint8_t *mask);
+/* The same with every sample's decoded height, no-data ones too: what a renderer
+ * interpolates towards in the half cell it keeps beside a valid sample (docs/codec.md,
+ * "No-data"); `mask` says which samples are valid. */
+int relief_decode_level_drawn(const struct relief_file *f, uint32_t level, unsigned threads, float *heights,
+                              uint8_t *mask);

@@ -11,6 +11,7 @@ struct probe {
 	const struct relief_file *f;
 	const struct relief_view *v;
 	const float *z;
+	const uint8_t *valid; /* NULL: no-data is NaN in z */
 	uint32_t w, h;
 	struct relief_mat4 vp; /* for positions relative to the eye */
 	/* the triangle: corners (finest-grid column, row), heights, twice its signed area */
@@ -49,7 +50,12 @@ static void probe_at(struct probe *p, double x, double y)
 	const float *r0 = p->z + (size_t)j * p->w + i, *r1 = r0 + p->w;
 	const double a = r0[0], b = r0[1], c = r1[0], d = r1[1];
 	if (isnan(a) || isnan(b) || isnan(c) || isnan(d))
-		return; /* a cell with a no-data corner: nothing is promised there */
+		return; /* a cell with a corner of unknown height: nothing is promised there */
+	if (p->valid) {
+		const uint8_t *v0 = p->valid + (size_t)j * p->w + i, *v1 = v0 + p->w;
+		if (!v0[0] && !v0[1] && !v1[0] && !v1[1])
+			return; /* no valid corner: nothing of the cell is drawn */
+	}
 	const double u = x - i, t = y - j;
 	/* the cell's two triangulations: diagonal a-d, then b-c */
 	const double fa = u >= t ? a + u * (b - a) + t * (d - b) : a + t * (c - a) + u * (d - c);
@@ -214,14 +220,14 @@ enum relief_mesh_kind relief_mesh_kind(const struct relief_mesh_vertex *c, const
 	return regular_side(c) ? RELIEF_MESH_REGULAR : transition_kind(c, q);
 }
 
-void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest, uint32_t w,
-                       uint32_t h, const struct relief_mesh_vertex *tri, const struct relief_mesh_quad *quads,
-                       uint64_t n, struct relief_mesh_error *out)
+void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest,
+                       const uint8_t *valid, uint32_t w, uint32_t h, const struct relief_mesh_vertex *tri,
+                       const struct relief_mesh_quad *quads, uint64_t n, struct relief_mesh_error *out)
 {
 	memset(out, 0, sizeof(*out));
 	if (w < 2 || h < 2)
 		return;
-	struct probe p = { .f = f, .v = v, .z = finest, .w = w, .h = h, .out = out };
+	struct probe p = { .f = f, .v = v, .z = finest, .valid = valid, .w = w, .h = h, .out = out };
 	p.vp = relief_view_projection(v, v->eye);
 	for (uint64_t t = 0; t < n; t++) {
 		const struct relief_mesh_vertex *c = tri + 3 * t;

@@ -88,15 +88,20 @@ struct relief_mesh_error {
 
 /* Measures n triangles (3 n vertices; `quads`, the quad of each, may be NULL) drawn for
  * view v against the finest decoded surface (`finest`, w x h heights in metres at the
- * file's finest samples, NaN for no-data). The
+ * file's finest samples). With `valid` (w x h bytes, 1 = a valid sample) `finest` holds
+ * every sample's decoded height, no-data ones too (relief_decode_level_drawn()): a cell
+ * with a valid corner is measured whole, since a renderer keeps the part of it nearest its
+ * valid corners and that part leans towards the others (the block errors bound it so:
+ * docs/codec.md, "Errors"). With valid NULL, NaN marks no-data and a cell with a NaN
+ * corner is skipped. The
  * difference of the flat triangle and the finest surface (either diagonal in each cell)
  * is linear between the points where the triangle's edges cross the finest grid's lines
  * and diagonals, the grid's samples and cells' centres inside it, and its corners, so its
  * largest magnitude is found exactly there. Each such point in the frustum counts; one
- * in a finest cell with a no-data corner, or outside the samples, is skipped (nothing is
+ * in a finest cell left out as above, or outside the samples, is skipped (nothing is
  * promised there). The projection to pixels is taken at the same points: between them it
  * varies with the depth, by at most the relative change of depth across a finest cell, so
  * the maximum stated may be short of the true one by that fraction. */
-void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest, uint32_t w,
-                       uint32_t h, const struct relief_mesh_vertex *tri, const struct relief_mesh_quad *quads,
-                       uint64_t n, struct relief_mesh_error *out);
+void relief_mesh_error(const struct relief_file *f, const struct relief_view *v, const float *finest,
+                       const uint8_t *valid, uint32_t w, uint32_t h, const struct relief_mesh_vertex *tri,
+                       const struct relief_mesh_quad *quads, uint64_t n, struct relief_mesh_error *out);

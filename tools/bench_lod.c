@@ -568,7 +568,8 @@ int bench_lod(int argc, char **argv)
 		return 1;
 	}
 	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all, .trace_events = trace };
-	float *finest = NULL;
+	float *finest = NULL, *drawn = NULL;
+	uint8_t *valid = NULL;
 	int status = 1, ret;
 	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log, .mesh_capture = true };
 	struct relief_patch_cache_options co = { .budget_bytes = 1ull << 30 };
@@ -577,12 +578,19 @@ int bench_lod(int argc, char **argv)
 	uint32_t *flight_at = NULL;
 	uint8_t *flight_sampled = NULL;
 	relief_level_extent(&f->hdr, f->hdr.levels - 1, &r.fw, &r.fh);
-	finest = malloc(sizeof(float) * r.fw * r.fh);
-	if (!finest || (ret = relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL)) < 0) {
+	const size_t samples = (size_t)r.fw * r.fh;
+	finest = malloc(sizeof(float) * samples);
+	drawn = malloc(sizeof(float) * samples);
+	valid = malloc(samples);
+	if (!finest || !drawn || !valid || (ret = relief_decode_level_drawn(f, f->hdr.levels - 1, 0, drawn, valid)) < 0) {
 		fprintf(stderr, "relief bench lod: %s: cannot decode the finest level\n", path);
 		goto out;
 	}
+	for (size_t i = 0; i < samples; i++)
+		finest[i] = valid[i] ? drawn[i] : NAN;
 	r.finest = finest;
+	r.drawn = drawn;
+	r.valid = valid;
 	if ((ret = tool_renderer_init(&r.gpu, &vo, f, &co, w, h)) < 0 ||
 	    (ret = relief_vk_target_init(r.gpu.vk, &r.fine, 3 * w, 3 * h)) < 0) {
 		fprintf(stderr, "relief bench lod: GPU setup failed: %s\n", strerror(-ret));
@@ -674,6 +682,8 @@ out:
 		relief_vk_target_finish(r.gpu.vk, &r.fine);
 	tool_renderer_finish(&r.gpu);
 	free(finest);
+	free(drawn);
+	free(valid);
 	free(r.mesh);
 	free(r.mesh_quads);
 	free(r.views);

@@ -78,7 +78,9 @@ struct result {
 struct run {
 	struct tool_renderer gpu;
 	const struct relief_file *f;
-	const float *finest;
+	const float *finest;  /* the finest level, NaN where no-data */
+	const float *drawn;   /* the same with the no-data samples' decoded heights */
+	const uint8_t *valid; /* which are valid (relief_mesh_error()) */
 	uint32_t fw, fh, frames;
 	struct relief_view *views;
 	/* the mesh capture's triangles (mesh_cap: MESH_CAP, or relief_terrain_mesh_limit() if

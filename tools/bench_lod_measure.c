@@ -148,7 +148,7 @@ static int mesh_measure(struct run *r, const struct config *c, struct relief_ter
 		return 0;
 	}
 	struct relief_mesh_error e;
-	relief_mesh_error(r->f, v, r->finest, r->fw, r->fh, r->mesh, r->mesh_quads, (uint64_t)n, &e);
+	relief_mesh_error(r->f, v, r->drawn, r->valid, r->fw, r->fh, r->mesh, r->mesh_quads, (uint64_t)n, &e);
 	res->mesh_max = fmax(res->mesh_max, e.max_px);
 	res->mesh_transition = fmax(res->mesh_transition, e.max_px_transition);
 	res->mesh_regular_worse = fmax(res->mesh_regular_worse, e.max_px_regular_worse);

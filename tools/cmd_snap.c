@@ -73,10 +73,11 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 	uint32_t cap = triangles > 0 && triangles < (1u << 26) ? (uint32_t)triangles + 1024 : 1u << 22;
 	cap = cap < limit ? cap : limit;
 	float *finest = malloc(sizeof(float) * fw * fh);
+	uint8_t *valid = malloc((size_t)fw * fh);
 	struct relief_mesh_vertex *tri = NULL;
 	struct relief_mesh_quad *quads = NULL;
 	int64_t n = 0;
-	int ret = finest ? relief_decode_level(f, f->hdr.levels - 1, 0, finest, NULL) : -ENOMEM;
+	int ret = finest && valid ? relief_decode_level_drawn(f, f->hdr.levels - 1, 0, finest, valid) : -ENOMEM;
 	for (int pass = 0; ret >= 0 && pass < 2; pass++) { /* again with room for all if they did not fit */
 		const struct relief_draw_options dopt = { .mesh = true };
 		struct relief_terrain_stats st;
@@ -109,7 +110,7 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 		fprintf(stderr, "relief snap: --exact: %s\n", strerror(-ret));
 	} else {
 		struct relief_mesh_error e;
-		relief_mesh_error(f, view, finest, fw, fh, tri, quads, (uint64_t)n, &e);
+		relief_mesh_error(f, view, finest, valid, fw, fh, tri, quads, (uint64_t)n, &e);
 		printf("relief snap: exact: %lld triangles (%llu transition, %llu vertical) measured at %llu points: "
 		       "max %.3f px (%.2f m) at (%.1f, %.1f, %.1f), patch %u; regular triangles %.3f px against either "
 		       "diagonal, transition triangles %.3f px: along coarser edges %.3f px (%llu), finer edges %.3f px "
@@ -138,6 +139,7 @@ static int snap_exact(const struct relief_file *f, struct tool_renderer *g, stru
 	free(tri);
 	free(quads);
 	free(finest);
+	free(valid);
 	return ret;
 }
 

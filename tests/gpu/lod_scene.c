@@ -350,8 +350,13 @@ uint32_t max_level_jump(const struct scene *s, const uint32_t *ids, uint32_t n)
 void bound_buffers(struct bound_scene *b)
 {
 	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
-	b->finest = malloc(sizeof(float) * b->fw * b->fh);
-	assert_int_equal(relief_decode_level(b->s.f, b->s.f->hdr.levels - 1, 0, b->finest, NULL), 0);
+	const size_t n = (size_t)b->fw * b->fh;
+	b->finest = malloc(sizeof(float) * n);
+	b->drawn = malloc(sizeof(float) * n);
+	b->valid = malloc(n);
+	assert_int_equal(relief_decode_level_drawn(b->s.f, b->s.f->hdr.levels - 1, 0, b->drawn, b->valid), 0);
+	for (size_t i = 0; i < n; i++)
+		b->finest[i] = b->valid[i] ? b->drawn[i] : NAN;
 	const size_t px = (size_t)b->s.target.width * b->s.target.height; /* BW x BH unless opened otherwise */
 	b->ref = malloc(sizeof(float) * px);
 	b->lod = malloc(sizeof(float) * px);
@@ -468,6 +473,8 @@ void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N)
 void bound_close(struct bound_scene *b)
 {
 	free(b->finest);
+	free(b->drawn);
+	free(b->valid);
 	free(b->ref);
 	free(b->lod);
 	struct relief_vk *vk = b->s.ctx;

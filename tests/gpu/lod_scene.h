@@ -186,7 +186,11 @@ enum { BW = 320, BH = 180 }; /* bound_scene size */
 struct bound_scene {
 	struct scene s;
 	uint32_t fw, fh;
-	float *finest, *ref, *lod;
+	float *finest, *ref, *lod; /* finest: NaN where no-data */
+	/* the finest level's every decoded height, no-data ones too, and which are valid: what
+	 * relief_mesh_error() measures drawn triangles against */
+	float *drawn;
+	uint8_t *valid;
 };
 
 void bound_open(struct bound_scene *b, struct relief_vk *vk, enum test_dem dem);

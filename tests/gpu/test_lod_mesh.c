@@ -36,7 +36,7 @@ static uint64_t mesh_measure(struct bound_scene *b, struct relief_view *v, const
 	assert_true(n > 0 && n <= MESH_CAP);
 	if (gpu_test_has_statistics(vk)) /* clipping invocations: the geometry shader's triangles */
 		assert_int_equal((uint64_t)n, st.triangles);
-	relief_mesh_error(b->s.f, v, b->finest, b->fw, b->fh, tri, quads, (uint64_t)n, e);
+	relief_mesh_error(b->s.f, v, b->drawn, b->valid, b->fw, b->fh, tri, quads, (uint64_t)n, e);
 	free(quads);
 	assert_seamless(tri, (uint64_t)n);
 	return (uint64_t)n;
@@ -346,7 +346,7 @@ static void test_mesh_capture_and_measure(void **state)
 	n = mesh_measure(&b, &v, NULL, tri, &base);
 	for (uint64_t k = 0; k < 3 * n; k++)
 		tri[k].height += 50.0f;
-	relief_mesh_error(b.s.f, &v, b.finest, b.fw, b.fh, tri, NULL, n, &e);
+	relief_mesh_error(b.s.f, &v, b.drawn, b.valid, b.fw, b.fh, tri, NULL, n, &e);
 	print_message("every vertex raised by 50 m: max %.3f px (%.2f m), before %.3f px (%.2f m)\n", e.max_px, e.max_m,
 	              base.max_px, base.max_m);
 	assert_true(e.max_px > base.max_px + 0.1);

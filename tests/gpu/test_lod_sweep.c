@@ -153,7 +153,7 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 		checked++;
 		triangles += (uint64_t)n;
 		struct relief_mesh_error e;
-		relief_mesh_error(s->f, &v, b->finest, b->fw, b->fh, t, q, (uint64_t)n, &e);
+		relief_mesh_error(s->f, &v, b->drawn, b->valid, b->fw, b->fh, t, q, (uint64_t)n, &e);
 		if (t != tri) {
 			free(t);
 			free(q);

@@ -1,6 +1,7 @@
 /* relief_mesh_error() on hand-made surfaces and triangles whose answers are known: it finds
  * a peak between a triangle's corners, a crossing of a cell's diagonal, tells the two
- * diagonals apart, skips no-data cells, vertical triangles and points outside the frustum. */
+ * diagonals apart, skips no-data cells (or, with a validity mask, the cells without a valid
+ * corner), vertical triangles and points outside the frustum. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -36,7 +37,7 @@ static void flat(float h)
 static struct relief_mesh_error measure(const struct relief_mesh_vertex *t, uint64_t n, const struct relief_view *v)
 {
 	struct relief_mesh_error e;
-	relief_mesh_error(&file, v, z, N, N, t, NULL, n, &e);
+	relief_mesh_error(&file, v, z, NULL, N, N, t, NULL, n, &e);
 	return e;
 }
 
@@ -156,7 +157,7 @@ static void test_kinds(void **state)
 	const struct relief_mesh_quad at0 = { 0, 0, 16, { 2, 4, 16, 1 }, 8 };
 	const struct relief_mesh_vertex t[3] = { { 0, 0, 3, 1 }, { 0, 8, 3, 1 }, { 2, 4, 3, 1 } };
 	struct relief_mesh_error e;
-	relief_mesh_error(&file, &v, z, N, N, t, &at0, 1, &e);
+	relief_mesh_error(&file, &v, z, NULL, N, N, t, &at0, 1, &e);
 	assert_int_equal(e.kind_triangles[RELIEF_MESH_COARSE_EDGE], 1);
 	assert_int_equal(e.transition, 1);
 	assert_true(e.kind_max_px[RELIEF_MESH_COARSE_EDGE] > 0);
@@ -194,6 +195,37 @@ static void test_left_out(void **state)
 	assert_true(e.points > 0 && fabs(e.max_m - 9) < 1e-9);
 }
 
+/* With a validity mask the no-data samples' decoded heights count: a cell with a valid
+ * corner is measured whole (a renderer keeps its part nearest the valid corners, which
+ * leans towards the others), a cell without one is left out. */
+static void test_valid_mask(void **state)
+{
+	struct relief_view v = view_down();
+	uint8_t valid[N * N];
+	memset(valid, 1, sizeof(valid));
+	flat(0);
+	/* sample (4, 4) no-data, decoded 40 m up: the four cells around it each have three
+	 * valid corners, so its 40 m count */
+	valid[4 * N + 4] = 0;
+	z[4 * N + 4] = 40;
+	const struct relief_mesh_vertex t[3] = { { 0, 0, 0, 1 }, { 8, 0, 0, 1 }, { 0, 8, 0, 1 } };
+	struct relief_mesh_error e;
+	relief_mesh_error(&file, &v, z, valid, N, N, t, NULL, 1, &e);
+	assert_true(fabs(e.max_m - 40) < 1e-9);
+	/* a 5 x 5 no-data square: (4, 4) lies in cells without a valid corner, left out, while
+	 * the ring's cells still count (0 m off) */
+	for (int r = 2; r <= 6; r++)
+		for (int c = 2; c <= 6; c++)
+			valid[r * N + c] = 0;
+	relief_mesh_error(&file, &v, z, valid, N, N, t, NULL, 1, &e);
+	assert_true(e.points > 0 && e.max_m == 0.0);
+	/* the mask with no no-data measures as NULL does */
+	memset(valid, 1, sizeof(valid));
+	struct relief_mesh_error all = measure(t, 1, &v);
+	relief_mesh_error(&file, &v, z, valid, N, N, t, NULL, 1, &e);
+	assert_true(e.points == all.points && e.max_m == all.max_m && fabs(e.max_m - 40) < 1e-9);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -202,6 +234,7 @@ int main(void)
 		cmocka_unit_test(test_regular_and_transition),
 		cmocka_unit_test(test_kinds),
 		cmocka_unit_test(test_left_out),
+		cmocka_unit_test(test_valid_mask),
 	};
 	return cmocka_run_group_tests(tests, setup, NULL);
 }
