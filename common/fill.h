@@ -3,11 +3,12 @@
  * A no-data sample is never drawn, but its value is still part of the surface: the
  * renderer keeps a fragment wherever its nearest sample is valid, so the half cell beyond
  * the last valid sample is drawn leaning towards the no-data neighbour's value, and that
- * neighbour enters the valid sample's normal. The packer therefore codes every no-data
- * sample it may (every one the decoder reads from a stream) from these heights.
+ * neighbour enters the valid sample's normal. The packer therefore codes the no-data
+ * samples beside the data (within one of their level's spacings: level_target() in
+ * common/pack.c) from these heights.
  *
- * The fill grows inwards from the data ring by ring (8-neighbourhood): each sample of a
- * ring takes the mean of its neighbours filled before that ring, so
+ * The fill grows outwards from the data into the no-data ring by ring (8-neighbourhood):
+ * each sample of a ring takes the mean of its neighbours filled before that ring, so
  *   - valid samples are copied bit for bit;
  *   - a no-data sample next to valid ones lies within [min, max] of those valid
  *     neighbours (the rim is drawn at the data's own heights, no wall to an arbitrary
