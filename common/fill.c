@@ -1,5 +1,4 @@
 #include <errno.h>
-#include <stdbool.h>
 #include <stddef.h>
 #include <stdlib.h>
 
@@ -30,21 +29,15 @@ static int ring_push(struct ring *r, uint32_t i)
 
 static const int DX[8] = { -1, 0, 1, -1, 1, -1, 0, 1 }, DY[8] = { -1, -1, -1, 0, 0, 1, 1, 1 };
 
-/* Queues the EMPTY 8-neighbours of sample (x, y), or (with `self`) the sample itself when
- * it is EMPTY and has a FILLED neighbour. */
-static int queue_around(uint32_t w, uint32_t h, uint8_t *state, struct ring *r, uint32_t x, uint32_t y, bool self)
+/* Queues the EMPTY 8-neighbours of sample (x, y). */
+static int queue_around(uint32_t w, uint32_t h, uint8_t *state, struct ring *r, uint32_t x, uint32_t y)
 {
 	for (int k = 0; k < 8; k++) {
 		int64_t X = (int64_t)x + DX[k], Y = (int64_t)y + DY[k];
 		if (X < 0 || Y < 0 || X >= w || Y >= h)
 			continue;
 		size_t j = (size_t)Y * w + (size_t)X;
-		if (self) {
-			if (state[j] == FILLED) {
-				state[(size_t)y * w + x] = QUEUED;
-				return ring_push(r, (uint32_t)((size_t)y * w + x));
-			}
-		} else if (state[j] == EMPTY) {
+		if (state[j] == EMPTY) {
 			state[j] = QUEUED;
 			int ret = ring_push(r, (uint32_t)j);
 			if (ret < 0)
@@ -72,11 +65,11 @@ int relief_fill_nodata(uint32_t w, uint32_t h, const float *heights, const uint8
 			ring_of[i] = 0;
 	}
 	int ret = filled ? 0 : -ENODATA;
-	/* The first ring: no-data samples touching a valid one. */
+	/* The first ring: the no-data samples around the valid ones. */
 	for (uint32_t y = 0; y < h && ret == 0 && filled < n; y++)
 		for (uint32_t x = 0; x < w && ret == 0; x++)
-			if (state[(size_t)y * w + x] == EMPTY)
-				ret = queue_around(w, h, state, &ring, x, y, true);
+			if (valid[(size_t)y * w + x])
+				ret = queue_around(w, h, state, &ring, x, y);
 	for (uint32_t step = 1; ret == 0 && ring.n; step++) {
 		/* Every value of a ring from the rings before it only (QUEUED is not read). */
 		for (size_t r = 0; r < ring.n; r++) {
@@ -100,7 +93,7 @@ int relief_fill_nodata(uint32_t w, uint32_t h, const float *heights, const uint8
 		}
 		next.n = 0;
 		for (size_t r = 0; r < ring.n && ret == 0; r++)
-			ret = queue_around(w, h, state, &next, ring.i[r] % w, ring.i[r] / w, false);
+			ret = queue_around(w, h, state, &next, ring.i[r] % w, ring.i[r] / w);
 		struct ring t = ring;
 		ring = next;
 		next = t;

@@ -682,7 +682,7 @@ void relief_file_window(const struct relief_file *f, uint32_t id, struct relief_
 		relief_window_full(&f->layout.geom, win);
 		return;
 	}
-	relief_patch_window(&f->layout, f->hdr.width, f->hdr.height, l, px, py, f->hdr.version >= 9, win);
+	relief_patch_window(&f->layout, f->hdr.width, f->hdr.height, l, px, py, relief_format_has_rim(f->hdr.version), win);
 }
 
 void relief_mask_blocks(const uint8_t *mask, uint32_t patch_size, uint8_t *has_data)

@@ -33,6 +33,11 @@
  * still read, and the packer can write version 8 (relief_pack_options.version). */
 #define RELIEF_FORMAT_VERSION 9u
 #define RELIEF_FORMAT_VERSION_MIN 2u
+/* Whether files of this version code the rim in their windows (relief_patch_window()). */
+static inline bool relief_format_has_rim(uint32_t version)
+{
+	return version >= 9;
+}
 #define RELIEF_HEADER_SIZE 512u
 /* Index record bytes: 48 from version 7, 40 before (relief_index_record_size()). */
 #define RELIEF_INDEX_RECORD_SIZE 48u

@@ -341,7 +341,7 @@ static int encode_patch(void *ctx, size_t e)
 	}
 	size_t size;
 	struct relief_window win;
-	relief_patch_window(&p->lay, p->dem->width, p->dem->height, l, px, py, p->index.version >= 9, &win);
+	relief_patch_window(&p->lay, p->dem->width, p->dem->height, l, px, py, relief_format_has_rim(p->index.version), &win);
 	if ((ret = relief_patch_encode(geom, l == 0, &win, labels, residuals, &p->stream[e], &size)) < 0)
 		goto out;
 	if (size > UINT32_MAX) {
@@ -534,8 +534,8 @@ int relief_pack_memory(const struct relief_dem *dem, const struct relief_pack_op
 		p->target = p->target_own;
 	}
 	for (uint32_t l = 0; l < p->lay.levels; l++) {
-		p->coded[l][0] = relief_level_coded(&p->lay, dem->width, l, p->index.version >= 9);
-		p->coded[l][1] = relief_level_coded(&p->lay, dem->height, l, p->index.version >= 9);
+		p->coded[l][0] = relief_level_coded(&p->lay, dem->width, l, relief_format_has_rim(p->index.version));
+		p->coded[l][1] = relief_level_coded(&p->lay, dem->height, l, relief_format_has_rim(p->index.version));
 	}
 	p->rec = calloc(n, sizeof(*p->rec));
 	p->stream = calloc(n, sizeof(*p->stream));
