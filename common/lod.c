@@ -438,8 +438,8 @@ double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t 
 	return sqrt(dx * dx + dy * dy);
 }
 
-double relief_surface_vertical_error(const struct relief_file *f, const float *hf, uint32_t w, uint32_t h,
-                                     uint32_t step, struct relief_vec3 p, double *mid)
+double relief_surface_vertical_error(const struct relief_file *f, const float *hf, const uint8_t *valid,
+                                     uint32_t w, uint32_t h, uint32_t step, struct relief_vec3 p, double *mid)
 {
 	if (mid)
 		*mid = 0.0;
@@ -448,10 +448,11 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 	if (!(gx >= 0 && gy >= 0 && gx <= w - 1 && gy <= h - 1) || w < 2 || h < 2)
 		return 0.0;
 	uint32_t i = gx >= w - 1 ? w - 2 : (uint32_t)gx, j = gy >= h - 1 ? h - 2 : (uint32_t)gy;
-	double u = gx - i, t = gy - j;
-	double a = hf[j * w + i], b = hf[j * w + i + 1], c = hf[(j + 1) * w + i], d = hf[(j + 1) * w + i + 1];
-	if (isnan(a) || isnan(b) || isnan(c) || isnan(d))
+	const size_t k = (size_t)j * w + i;
+	if (valid && !valid[k] && !valid[k + 1] && !valid[k + w] && !valid[k + w + 1])
 		return 0.0;
+	double u = gx - i, t = gy - j;
+	double a = hf[k], b = hf[k + 1], c = hf[k + w], d = hf[k + w + 1];
 	double d0 = u >= t ? a + u * (b - a) + t * (d - b) : a + t * (c - a) + u * (d - c);
 	double d1 = u + t <= 1 ? a + u * (b - a) + t * (c - a) : d + (1 - u) * (c - d) + (1 - t) * (b - d);
 	double e0 = p.z - d0, e1 = p.z - d1;

@@ -97,15 +97,20 @@ struct relief_mat4 relief_view_projection(const struct relief_view *v, struct re
 /* relief_view_segment_px() with the view-projection (for p relative to its origin) and the
  * viewport given: for measuring many points of one view. */
 double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t height, struct relief_vec3 p, double e);
-/* Signed vertical distance from p to a level's decoded surface (heights w x h in metres,
- * samples at the file's spacing times `step`), the nearer of the two cell diagonals; 0
- * outside the raster or over no-data. `mid`, if not NULL, receives the signed distance to
- * the mean of the two diagonals' surfaces: one fixed reference, for differences of errors
- * (popping). The nearer diagonal is the reference the bound is stated against (either
- * could be drawn), but it changes sides when p crosses the middle between the two, so a
- * point moving by a hair flips the sign of its error there. */
-double relief_surface_vertical_error(const struct relief_file *f, const float *heights, uint32_t w, uint32_t h,
-                                     uint32_t step, struct relief_vec3 p, double *mid);
+/* Signed vertical distance from p to a level's decoded surface, the nearer of the two cell
+ * diagonals: heights w x h in metres, every sample's decoded height, no-data ones too
+ * (relief_decode_level_drawn()), samples at the file's spacing times `step`; `valid` says
+ * which are data (NULL: all). A cell with a valid corner is measured whole, at its no-data
+ * corners' decoded heights: a renderer keeps the fragments nearest to a valid sample, and
+ * those lean towards the no-data corners (relief_mesh_error() measures the same cells). 0
+ * outside the raster and in a cell without a valid corner (nothing of it is drawn there).
+ * `mid`, if not NULL, receives the signed distance to the mean of the two diagonals'
+ * surfaces: one fixed reference, for differences of errors (popping). The nearer diagonal
+ * is the reference the bound is stated against (either could be drawn), but it changes
+ * sides when p crosses the middle between the two, so a point moving by a hair flips the
+ * sign of its error there. */
+double relief_surface_vertical_error(const struct relief_file *f, const float *heights, const uint8_t *valid,
+                                     uint32_t w, uint32_t h, uint32_t step, struct relief_vec3 p, double *mid);
 
 /* An upper bound (metres) on the height of the surface that any level of detail draws at
  * world (x, y): the largest block height range (relief_file_block_ranges()) over every

@@ -568,7 +568,7 @@ int bench_lod(int argc, char **argv)
 		return 1;
 	}
 	struct run r = { .f = f, .frames = frames, .recheck_all = recheck_all, .trace_events = trace };
-	float *finest = NULL, *drawn = NULL;
+	float *drawn = NULL;
 	uint8_t *valid = NULL;
 	int status = 1, ret;
 	struct relief_vk_options vo = { .device = device, .validation = validation, .log = &cli_log, .mesh_capture = true };
@@ -579,16 +579,12 @@ int bench_lod(int argc, char **argv)
 	uint8_t *flight_sampled = NULL;
 	relief_level_extent(&f->hdr, f->hdr.levels - 1, &r.fw, &r.fh);
 	const size_t samples = (size_t)r.fw * r.fh;
-	finest = malloc(sizeof(float) * samples);
 	drawn = malloc(sizeof(float) * samples);
 	valid = malloc(samples);
-	if (!finest || !drawn || !valid || (ret = relief_decode_level_drawn(f, f->hdr.levels - 1, 0, drawn, valid)) < 0) {
+	if (!drawn || !valid || (ret = relief_decode_level_drawn(f, f->hdr.levels - 1, 0, drawn, valid)) < 0) {
 		fprintf(stderr, "relief bench lod: %s: cannot decode the finest level\n", path);
 		goto out;
 	}
-	for (size_t i = 0; i < samples; i++)
-		finest[i] = valid[i] ? drawn[i] : NAN;
-	r.finest = finest;
 	r.drawn = drawn;
 	r.valid = valid;
 	if ((ret = tool_renderer_init(&r.gpu, &vo, f, &co, w, h)) < 0 ||
@@ -681,7 +677,6 @@ out:
 	if (r.gpu.vk)
 		relief_vk_target_finish(r.gpu.vk, &r.fine);
 	tool_renderer_finish(&r.gpu);
-	free(finest);
 	free(drawn);
 	free(valid);
 	free(r.mesh);

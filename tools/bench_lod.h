@@ -78,9 +78,11 @@ struct result {
 struct run {
 	struct tool_renderer gpu;
 	const struct relief_file *f;
-	const float *finest;  /* the finest level, NaN where no-data */
-	const float *drawn;   /* the same with the no-data samples' decoded heights */
-	const uint8_t *valid; /* which are valid (relief_mesh_error()) */
+	/* the finest level, every sample's decoded height (no-data ones too), and which are
+	 * valid: what the errors are measured against (relief_surface_vertical_error(),
+	 * relief_mesh_error()) */
+	const float *drawn;
+	const uint8_t *valid;
 	uint32_t fw, fh, frames;
 	struct relief_view *views;
 	/* the mesh capture's triangles (mesh_cap: MESH_CAP, or relief_terrain_mesh_limit() if

@@ -47,7 +47,7 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 			if (!(depth[k] > 0.0f)) /* reversed Z: 0 is the background */
 				continue;
 			struct relief_vec3 p = relief_view_unproject(v, (int)x, (int)y, depth[k]);
-			double mid, dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p, &mid);
+			double mid, dz = relief_surface_vertical_error(r->f, r->drawn, r->valid, r->fw, r->fh, 1, p, &mid);
 			double px = relief_view_segment_px(v, p, fabs(dz)), pm = relief_view_segment_px(v, p, fabs(mid));
 			if (c->reference) {
 				if (a)
@@ -103,7 +103,7 @@ static int recheck(struct run *r, const struct config *c, struct relief_terrain_
 		double px = a->over_px[j], px3 = NAN;
 		if (triangles > 0 && st.triangles == triangles && depth[k3] > 0.0f) {
 			struct relief_vec3 p = relief_view_unproject(&v3, (int)(3 * x + 1), (int)(3 * y + 1), depth[k3]);
-			double dz = relief_surface_vertical_error(r->f, r->finest, r->fw, r->fh, 1, p, NULL);
+			double dz = relief_surface_vertical_error(r->f, r->drawn, r->valid, r->fw, r->fh, 1, p, NULL);
 			px3 = relief_view_segment_px(&v3, p, fabs(dz)) / 3.0;
 		}
 		if (isfinite(px3)) {

@@ -205,8 +205,8 @@ uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct re
 /* Pixel (x, y) of a LOD render over tau, farther than the reference: whether it also shows
  * something farther (reversed depth: smaller) than all eight neighbours, each of which
  * shows terrain within tau (see struct comparison). */
-static bool pinhole(const struct scene *s, const struct relief_view *v, const float *lod, const float *finest,
-                    uint32_t fw, uint32_t fh, int x, int y)
+static bool pinhole(const struct scene *s, const struct relief_view *v, const float *lod, const float *drawn,
+                    const uint8_t *valid, uint32_t fw, uint32_t fh, int x, int y)
 {
 	const int W = (int)v->width, H = (int)v->height;
 	const float d = lod[y * W + x];
@@ -218,7 +218,7 @@ static bool pinhole(const struct scene *s, const struct relief_view *v, const fl
 			if (xx < 0 || yy < 0 || xx >= W || yy >= H || !(lod[yy * W + xx] > d))
 				return false;
 			struct relief_vec3 pt = relief_view_unproject(v, xx, yy, lod[yy * W + xx]);
-			double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
+			double e = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pt, NULL));
 			if (relief_view_segment_px(v, pt, e) > v->tau)
 				return false;
 		}
@@ -226,7 +226,7 @@ static bool pinhole(const struct scene *s, const struct relief_view *v, const fl
 }
 
 struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref,
-                          const float *lod, const float *finest, uint32_t fw, uint32_t fh)
+                          const float *lod, const float *drawn, const uint8_t *valid, uint32_t fw, uint32_t fh)
 {
 	struct comparison c = { 0 };
 	const int W = (int)v->width, H = (int)v->height, r = (int)ceil(v->tau) + 1;
@@ -243,9 +243,9 @@ struct comparison compare(const struct scene *s, const struct relief_view *v, co
 				c.holes++;
 			if (d > 0.0f && ref[y * W + x] > 0.0f) {
 				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
-				double e = fabs(relief_surface_vertical_error(s->f, finest, fw, fh, 1, pt, NULL));
+				double e = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pt, NULL));
 				double px = relief_view_segment_px(v, pt, e);
-				if (px > v->tau && d < ref[y * W + x] && pinhole(s, v, lod, finest, fw, fh, x, y)) {
+				if (px > v->tau && d < ref[y * W + x] && pinhole(s, v, lod, drawn, valid, fw, fh, x, y)) {
 					c.pinholes++;
 					c.both++;
 					continue;
@@ -351,12 +351,9 @@ void bound_buffers(struct bound_scene *b)
 {
 	relief_level_extent(&b->s.f->hdr, b->s.f->hdr.levels - 1, &b->fw, &b->fh);
 	const size_t n = (size_t)b->fw * b->fh;
-	b->finest = malloc(sizeof(float) * n);
 	b->drawn = malloc(sizeof(float) * n);
 	b->valid = malloc(n);
 	assert_int_equal(relief_decode_level_drawn(b->s.f, b->s.f->hdr.levels - 1, 0, b->drawn, b->valid), 0);
-	for (size_t i = 0; i < n; i++)
-		b->finest[i] = b->valid[i] ? b->drawn[i] : NAN;
 	const size_t px = (size_t)b->s.target.width * b->s.target.height; /* BW x BH unless opened otherwise */
 	b->ref = malloc(sizeof(float) * px);
 	b->lod = malloc(sizeof(float) * px);
@@ -472,7 +469,6 @@ void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N)
 
 void bound_close(struct bound_scene *b)
 {
-	free(b->finest);
 	free(b->drawn);
 	free(b->valid);
 	free(b->ref);
@@ -497,16 +493,17 @@ void within_tau_of_reference(struct scene *s, struct relief_view *v, const doubl
 	const uint32_t W = v->width, H = v->height;
 	uint32_t fw, fh;
 	relief_level_extent(&s->f->hdr, s->f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
+	float *drawn = malloc(sizeof(float) * fw * fh), *ref = malloc(sizeof(float) * W * H);
 	float *lod = malloc(sizeof(float) * W * H);
-	assert_int_equal(relief_decode_level(s->f, s->f->hdr.levels - 1, 0, finest, NULL), 0);
+	uint8_t *valid = malloc((size_t)fw * fh);
+	assert_int_equal(relief_decode_level_drawn(s->f, s->f->hdr.levels - 1, 0, drawn, valid), 0);
 	struct relief_terrain_stats st;
 	v->tau = 0.001;
 	render(s, v, ref, &st);
 	for (size_t k = 0; k < n; k++) {
 		v->tau = taus[k];
 		render(s, v, lod, &st);
-		struct comparison c = compare(s, v, ref, lod, finest, fw, fh);
+		struct comparison c = compare(s, v, ref, lod, drawn, valid, fw, fh);
 		print_message("%s, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px (%.1f m) over "
 		              "%u pixels, %u pinholes\n", what, v->tau, st.patches, (unsigned long long)st.triangles, c.holes,
 		              c.worst_px, c.worst_m, c.both, c.pinholes);
@@ -515,7 +512,8 @@ void within_tau_of_reference(struct scene *s, struct relief_view *v, const doubl
 		assert_true(c.both > min_pixels);
 		assert_true(c.worst_px <= v->tau);
 	}
-	free(finest);
+	free(drawn);
+	free(valid);
 	free(ref);
 	free(lod);
 }

@@ -115,9 +115,10 @@ struct comparison {
  * rasteriser leaves such single pixels uncovered between triangles that share their
  * vertices bit for bit (seen, December 2026, where the mesh capture found that frame's
  * mesh within tau everywhere and without a T-junction); a crack is a line of pixels, which
- * this does not leave out, and test_sealed_borders looks for cracks with nothing behind. */
+ * this does not leave out, and test_sealed_borders looks for cracks with nothing behind.
+ * `drawn`, `valid`: the finest level (relief_surface_vertical_error()). */
 struct comparison compare(const struct scene *s, const struct relief_view *v, const float *ref, const float *lod,
-                          const float *finest, uint32_t fw, uint32_t fh);
+                          const float *drawn, const uint8_t *valid, uint32_t fw, uint32_t fh);
 
 /* View tv's last frame's drawn patch ids (relief_terrain_view_drawn(), which must succeed). */
 uint32_t view_drawn(struct relief_terrain_view *tv, uint32_t *ids, uint32_t cap);
@@ -186,9 +187,9 @@ enum { BW = 320, BH = 180 }; /* bound_scene size */
 struct bound_scene {
 	struct scene s;
 	uint32_t fw, fh;
-	float *finest, *ref, *lod; /* finest: NaN where no-data */
+	float *ref, *lod;
 	/* the finest level's every decoded height, no-data ones too, and which are valid: what
-	 * relief_mesh_error() measures drawn triangles against */
+	 * compare() and relief_mesh_error() measure against */
 	float *drawn;
 	uint8_t *valid;
 };

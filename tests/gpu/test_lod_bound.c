@@ -23,7 +23,7 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 	bound_open(&b, vk, dem);
 	struct scene s = b.s;
 	uint32_t fw = b.fw, fh = b.fh;
-	float *finest = b.finest, *ref = b.ref, *lod = b.lod;
+	float *ref = b.ref, *lod = b.lod;
 	const double taus[] = { 1.0, 4.0 };
 	for (size_t p = 0; p < n_poses; p++) {
 		struct relief_view v = pose_view(&poses[p]);
@@ -35,7 +35,7 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 			v.tau = taus[k / 2];
 			v.morph = k % 2; /* each tau without and with morphing */
 			render(&s, &v, lod, &st);
-			struct comparison c = compare(&s, &v, ref, lod, finest, fw, fh);
+			struct comparison c = compare(&s, &v, ref, lod, b.drawn, b.valid, fw, fh);
 			print_message("%s pose %zu tau %g%s: %u patches (reference %u), %u holes, max vertical error %.3f px "
 			              "(%.2f m) over %u pixels, %u pinholes\n", test_dem_name(dem), p, v.tau,
 			              v.morph ? " morphed" : "", st.patches, ref_patches, c.holes, c.worst_px, c.worst_m, c.both,
@@ -131,7 +131,7 @@ static void sealed_borders(enum test_dem dem, const struct pose *poses, size_t n
 			v.morph = k % 2;
 			render_with(&s, &v, &bare, b.lod, &st);
 			uint32_t n, levels = drawn_levels(&s, ids, &n);
-			struct comparison c = compare(&s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
+			struct comparison c = compare(&s, &v, b.ref, b.lod, b.drawn, b.valid, b.fw, b.fh);
 			print_message("%s pose %zu tau %g%s, no skirts: %u patches, level mask 0x%x, %llu triangles (full "
 			              "%llu), %u holes, max vertical error %.3f px over %u pixels\n", test_dem_name(dem), p, v.tau,
 			              v.morph ? " morphed" : "", n, levels, (unsigned long long)st.triangles,
@@ -242,7 +242,7 @@ static void test_deep_level_jumps(void **state)
 			uint32_t n;
 			drawn_levels(&b.s, ids, &n);
 			uint32_t jump = max_level_jump(&b.s, ids, n);
-			struct comparison c = compare(&b.s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
+			struct comparison c = compare(&b.s, &v, b.ref, b.lod, b.drawn, b.valid, b.fw, b.fh);
 			print_message("sea and land, sweep view %u (tau %g%s): %u patches, largest level jump %u, %u holes\n",
 			              views[i].sweep, v.tau, morph ? ", morphed" : "", n, jump, c.holes);
 			assert_int_equal(c.holes, 0);
@@ -412,7 +412,7 @@ static void test_sealed_corners(void **state)
 			v.morph = morph;
 			render_with(&s, &v, &bare, b.lod, &st);
 			uint32_t n, levels = drawn_levels(&s, ids, &n);
-			struct comparison c = compare(&s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
+			struct comparison c = compare(&s, &v, b.ref, b.lod, b.drawn, b.valid, b.fw, b.fh);
 			uint32_t quads = st.patches * s.f->layout.blocks * s.f->layout.blocks;
 			print_message("corner view %zu (tau %g%s): %u patches, level mask 0x%x, %u of %u quads sealed, %u holes\n",
 			              i, v.tau, morph ? ", morphed" : "", n, levels, st.sealed_quads, quads, c.holes);
@@ -487,8 +487,8 @@ static double lod_pop(struct scene *s, const float *finest, uint32_t fw, uint32_
 				continue;
 			struct relief_vec3 p = relief_view_unproject(to, x, y, own[k]), q = relief_view_unproject(to, x, y, frozen[k]);
 			double mp, mq;
-			relief_surface_vertical_error(s->f, finest, fw, fh, 1, p, &mp);
-			relief_surface_vertical_error(s->f, finest, fw, fh, 1, q, &mq);
+			relief_surface_vertical_error(s->f, finest, NULL, fw, fh, 1, p, &mp);
+			relief_surface_vertical_error(s->f, finest, NULL, fw, fh, 1, q, &mq);
 			double a = relief_view_segment_px(to, p, fabs(mp)), b = relief_view_segment_px(to, q, fabs(mq));
 			if (isfinite(a) && isfinite(b))
 				worst = fmax(worst, fabs((mp < 0 ? -a : a) - (mq < 0 ? -b : b)));
@@ -689,7 +689,7 @@ static void test_flat_sea(void **state)
 			render_seamless(&b.s, &v, NULL); /* the hole's border and the flat blocks too */
 		if (!cases[k / 2].above)
 			continue;
-		struct comparison cmp = compare(&b.s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
+		struct comparison cmp = compare(&b.s, &v, b.ref, b.lod, b.drawn, b.valid, b.fw, b.fh);
 		print_message("  against full resolution: %u holes, max vertical error %.4f px over %u pixels\n", cmp.holes,
 		              cmp.worst_px, cmp.both);
 		assert_int_equal(cmp.holes, 0);
@@ -724,7 +724,7 @@ static void test_cliffs(void **state)
 			v.tau = taus[k / 2];
 			v.morph = k % 2;
 			render(&b.s, &v, b.lod, &st);
-			struct comparison c = compare(&b.s, &v, b.ref, b.lod, b.finest, b.fw, b.fh);
+			struct comparison c = compare(&b.s, &v, b.ref, b.lod, b.drawn, b.valid, b.fw, b.fh);
 			print_message("cliffs pose %zu tau %g%s: %u patches, %llu triangles, %u holes, max vertical error %.3f px "
 			              "(%.2f m) over %u pixels\n", p, v.tau, v.morph ? " morphed" : "", st.patches,
 			              (unsigned long long)st.triangles, c.holes, c.worst_px, c.worst_m, c.both);

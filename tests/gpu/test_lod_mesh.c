@@ -151,8 +151,8 @@ static void driving_poses(const struct bound_scene *b, const double xy[][4], siz
 	for (size_t i = 0; i < n; i++) {
 		long c = lround((xy[i][0] - h->origin_x) / h->spacing_x), r = lround((h->origin_y - xy[i][1]) / h->spacing_y);
 		assert_true(c >= 0 && r >= 0 && c < (long)b->fw && r < (long)b->fh);
-		double ground = b->finest[(size_t)r * b->fw + (size_t)c];
-		assert_false(isnan(ground));
+		assert_true(b->valid[(size_t)r * b->fw + (size_t)c]);
+		double ground = b->drawn[(size_t)r * b->fw + (size_t)c];
 		out[i] = (struct pose){ { xy[i][0], xy[i][1], ground + 2.0 }, { xy[i][2], xy[i][3], ground - 98.0 } };
 	}
 }

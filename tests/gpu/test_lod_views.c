@@ -489,7 +489,7 @@ static void test_frozen_lod(void **state)
 		assert_int_equal(st_frozen.triangles, st.triangles);
 		assert_true(st_moved.triangles != st.triangles);
 	}
-	struct comparison c = compare(&s, &moved, b.ref, frozen, b.finest, b.fw, b.fh);
+	struct comparison c = compare(&s, &moved, b.ref, frozen, b.drawn, b.valid, b.fw, b.fh);
 	print_message("frozen LOD from the moved camera: %u holes, max vertical error %.3f px over %u pixels\n",
 	              c.holes, c.worst_px, c.both);
 	assert_int_equal(c.holes, 0);

@@ -1,7 +1,8 @@
 /* relief_mesh_error() on hand-made surfaces and triangles whose answers are known: it finds
  * a peak between a triangle's corners, a crossing of a cell's diagonal, tells the two
  * diagonals apart, skips no-data cells (or, with a validity mask, the cells without a valid
- * corner), vertical triangles and points outside the frustum. */
+ * corner), vertical triangles and points outside the frustum; the pixel measure
+ * (relief_surface_vertical_error()) takes the same cells. */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -12,6 +13,7 @@
 #include <cmocka.h>
 
 #include "layout.h"
+#include "lod.h"
 #include "mesh_error.h"
 
 enum { N = 9 }; /* a 9 x 9 sample grid, 10 m apart, origin (0, 80): rows run south */
@@ -226,6 +228,35 @@ static void test_valid_mask(void **state)
 	assert_true(e.points == all.points && e.max_m == all.max_m && fabs(e.max_m - 40) < 1e-9);
 }
 
+/* The pixel measure (lod.h) takes the same cells: those with a valid corner whole, at the
+ * no-data corners' decoded heights; a cell without one reads 0. */
+static void test_pixel_measure_mask(void **state)
+{
+	uint8_t valid[N * N];
+	memset(valid, 1, sizeof(valid));
+	flat(0);
+	valid[4 * N + 4] = 0;
+	z[4 * N + 4] = 40;
+	/* finest (3.75, 3.75), in the cell whose south-east corner is the no-data sample: the
+	 * diagonals through it put the surface 30 m (that corner's) and 20 m up, the nearer
+	 * is 20 m from a point at 0 m */
+	const struct relief_vec3 p = { 37.5, 80 - 37.5, 0 };
+	double mid, e = relief_surface_vertical_error(&file, z, valid, N, N, 1, p, &mid);
+	assert_true(fabs(e + 20) < 1e-9 && fabs(mid + 25) < 1e-9);
+	assert_true(relief_surface_vertical_error(&file, z, NULL, N, N, 1, p, NULL) == e);
+	/* a 5 x 5 no-data square around it: its inner cells read 0, its rim's cells count */
+	for (int r = 2; r <= 6; r++)
+		for (int c = 2; c <= 6; c++)
+			valid[r * N + c] = 0;
+	assert_true(relief_surface_vertical_error(&file, z, valid, N, N, 1, p, &mid) == 0.0 && mid == 0.0);
+	z[2 * N + 2] = 8; /* the square's north-west corner; finest (1.5, 1.5), 10 m up */
+	e = relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ 15, 80 - 15, 10 }, &mid);
+	assert_true(fabs(e - 6) < 1e-9 && fabs(mid - 8) < 1e-9);
+	/* outside the grid: 0 */
+	assert_true(relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ -1, 40, 5 }, NULL) ==
+	            0.0);
+}
+
 int main(void)
 {
 	const struct CMUnitTest tests[] = {
@@ -235,6 +266,7 @@ int main(void)
 		cmocka_unit_test(test_kinds),
 		cmocka_unit_test(test_left_out),
 		cmocka_unit_test(test_valid_mask),
+		cmocka_unit_test(test_pixel_measure_mask),
 	};
 	return cmocka_run_group_tests(tests, setup, NULL);
 }
