@@ -8,9 +8,12 @@
  * shore, a 7-level tree (65-sample patches) where both forced-split rules apply (five
  * levels, the finer border: lod_force.comp). Eyes anywhere over the raster and a tenth
  * of it beyond, from 20 m above a height in the terrain's range (so also inside
- * mountains) to about 8 km higher, any heading, looking 2-87 degrees down; tau 0.5 to 30,
- * morphed or not, skirts on or off, each at random from a fixed seed, so a failure names
- * a view that can be drawn again. A frame of more triangles than one capture holds on the
+ * mountains) to about 8 km higher, any heading, looking 2-87 degrees down, or (a quarter
+ * of the views, where the eye is over data) a driver's 1.5-3 m above the decoded surface
+ * looking 0-10 degrees down with the near plane at 0.5 m; a vertical field of view of
+ * 10-110 degrees (50 until the forty-fourth December 2026 session, and no driver's eyes);
+ * tau 0.5 to 30, morphed or not, skirts on or off, each at random from a seed
+ * (RELIEF_SWEEP_SEED, default 12345), so a failure names a view that can be drawn again. A frame of more triangles than one capture holds on the
  * device is captured in parts (capture_in_parts(): drawn again for each); one of more
  * patches than the scene's cache holds (render_fits()) is named and left out (at least
  * half the views must be checked). Each view's frames are numbered after the last view's,
@@ -54,6 +57,15 @@ static double rnd(void)
 {
 	rng_state = rng_state * 1664525u + 1013904223u;
 	return (rng_state >> 8) / 16777216.0;
+}
+
+/* RELIEF_SWEEP_SEED starts the generator elsewhere (default 12345): a longer run with
+ * another seed draws views no run before drew. */
+static void sweep_seed(void)
+{
+	const char *e = getenv("RELIEF_SWEEP_SEED");
+	rng_state = e ? (uint32_t)strtoul(e, NULL, 0) : 12345u;
+	printf("views from seed %u\n", rng_state);
 }
 
 static int sweep_views(void)
@@ -101,6 +113,25 @@ static struct relief_mesh_vertex *capture_in_parts(struct scene *s, const struct
 	}
 }
 
+/* Sets *z to the decoded surface's height at world (x, y) plus `above` and returns true
+ * where (x, y) is over valid data (the nearest finest sample's); else leaves *z. */
+static bool low_eye(const struct bound_scene *b, double x, double y, double above, double *z)
+{
+	const struct relief_header *h = &b->s.f->hdr;
+	const long c = lround((x - h->origin_x) / h->spacing_x), r = lround((h->origin_y - y) / h->spacing_y);
+	if (c < 0 || r < 0 || c >= (long)b->fw || r >= (long)b->fh || !b->valid[(size_t)r * b->fw + (size_t)c])
+		return false;
+	/* the highest of the 3 x 3 samples around the nearest: every cell holding (x, y) has
+	 * its corners among them, and the surface there is below them */
+	const long c0 = c > 0 ? c - 1 : c, r0 = r > 0 ? r - 1 : r;
+	double top = -INFINITY;
+	for (long rr = r0; rr <= r0 + 2 && rr < (long)b->fh; rr++)
+		for (long cc = c0; cc <= c0 + 2 && cc < (long)b->fw; cc++)
+			top = fmax(top, b->drawn[(size_t)rr * b->fw + (size_t)cc]);
+	*z = top + above;
+	return true;
+}
+
 /* Draws `views` random views of scene b and checks each frame's mesh. */
 static void sweep(struct bound_scene *b, const char *name, int views)
 {
@@ -116,12 +147,18 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 	float *depth = malloc(sizeof(float) * BW * BH);
 	assert_true(tri && quads && depth);
 	const double taus[] = { 0.5, 1, 2, 4, 8, 16, 30 };
-	uint32_t frames = 0, checked = 0, bad = 0, unfit = 0, parted = 0;
+	uint32_t frames = 0, checked = 0, bad = 0, unfit = 0, parted = 0, low_checked = 0;
 	uint64_t triangles = 0;
 	for (int i = 0; i < views; i++) {
 		const double ex = h->origin_x + (rnd() * 1.2 - 0.1) * w, ey = h->origin_y - (rnd() * 1.2 - 0.1) * d;
-		const double ez = h->height_min + (h->height_max - h->height_min) * rnd() + 20 + 8000 * rnd() * rnd();
-		const double yaw = rnd() * 2 * M_PI, pitch = -(2 + 85 * rnd() * rnd()) * M_PI / 180;
+		double ez = h->height_min + (h->height_max - h->height_min) * rnd() + 20 + 8000 * rnd() * rnd();
+		const double yaw = rnd() * 2 * M_PI;
+		double pitch = -(2 + 85 * rnd() * rnd()) * M_PI / 180;
+		/* a quarter of the views a driver's: 1.5-3 m above the decoded surface (where the
+		 * eye is over valid data), looking 0-10 degrees down, the near plane at 0.5 m */
+		const bool low = rnd() < 0.25 && low_eye(b, ex, ey, 1.5 + 1.5 * rnd(), &ez);
+		if (low)
+			pitch = -10 * rnd() * M_PI / 180;
 		const struct pose p = { { ex, ey, ez },
 			                { ex + cos(yaw) * cos(pitch) * 1000, ey + sin(yaw) * cos(pitch) * 1000,
 			                  ez + sin(pitch) * 1000 } };
@@ -129,6 +166,9 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 		v.tau = taus[(int)(rnd() * 7)];
 		v.morph = rnd() < 0.5;
 		v.zfar = 1e6;
+		v.fovy = 10 * pow(11, rnd()) * M_PI / 180; /* 10-110 degrees, as many below 33 as above */
+		if (low)
+			v.znear = 0.5;
 		const struct relief_draw_options o = { .fine = RELIEF_FINE_ERRORS, .mesh = true, .no_skirts = rnd() < 0.5 };
 		s->frame_base = 100 * (uint64_t)i; /* the views before may be evicted (coast 4097) */
 		struct relief_terrain_stats st;
@@ -151,6 +191,7 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 		struct relief_mesh_seams m;
 		assert_int_equal(relief_mesh_seams(t, (uint64_t)n, RELIEF_MESH_SEAM_TOL_M, &m), 0);
 		checked++;
+		low_checked += low;
 		triangles += (uint64_t)n;
 		struct relief_mesh_error e;
 		relief_mesh_error(s->f, &v, b->drawn, b->valid, b->fw, b->fh, t, q, (uint64_t)n, &e);
@@ -162,23 +203,24 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 		if (e.max_px > v.tau) {
 			over++;
 			print_message("%s view %d: tau %g%s: max %.4f px (%.2f m), regular worse %.4f, transition %.4f, "
-			              "eye (%.1f, %.1f, %.1f) heading %.4f pitch %.4f, %u patches\n",
+			              "eye (%.2f, %.2f, %.2f) heading %.4f pitch %.4f fov %.2f, %u patches\n",
 			              name, i, v.tau, v.morph ? " morphed" : "", e.max_px, e.max_m, e.max_px_regular_worse,
-			              e.max_px_transition, ex, ey, ez, yaw, pitch, st.patches);
+			              e.max_px_transition, ex, ey, ez, yaw, pitch, v.fovy * 180 / M_PI, st.patches);
 		}
 		if (m.split || m.junctions) {
 			bad++;
-			print_message("%s view %d: eye (%.1f, %.1f, %.1f) heading %.4f pitch %.4f rad, tau %g%s%s: %llu positions "
-			              "split (first at sample %lld, %lld), %llu T-junctions (%llu open, largest gap %.3g m)\n",
-			              name, i, ex, ey, ez, yaw, pitch, v.tau, v.morph ? ", morphed" : "",
+			print_message("%s view %d: eye (%.2f, %.2f, %.2f) heading %.4f pitch %.4f rad, fov %.2f, tau %g%s%s: %llu "
+			              "positions split (first at sample %lld, %lld), %llu T-junctions (%llu open, largest gap %.3g "
+			              "m)\n",
+			              name, i, ex, ey, ez, yaw, pitch, v.fovy * 180 / M_PI, v.tau, v.morph ? ", morphed" : "",
 			              o.no_skirts ? ", no skirts" : "", (unsigned long long)m.split, (long long)m.split_at.col,
 			              (long long)m.split_at.row, (unsigned long long)m.junctions, (unsigned long long)m.open,
 			              m.max_gap_m);
 		}
 	}
-	print_message("%s: %d views, %u with terrain, %u more than the cache holds, %u checked (%llu triangles; %u "
-	              "captured in parts), %u with seams, %u over tau (worst %.4f tau)\n", name, views, frames, unfit,
-	              checked, (unsigned long long)triangles, parted, bad, over, worst_ratio);
+	print_message("%s: %d views, %u with terrain, %u more than the cache holds, %u checked (%u of them low; %llu "
+	              "triangles; %u captured in parts), %u with seams, %u over tau (worst %.4f tau)\n", name, views,
+	              frames, unfit, checked, low_checked, (unsigned long long)triangles, parted, bad, over, worst_ratio);
 	assert_int_equal(bad, 0);
 	assert_int_equal(over, 0);
 	assert_true(checked >= (uint32_t)views / 2);
@@ -269,5 +311,6 @@ int main(void)
 		cmocka_unit_test(test_sweep_hard_terrains),
 	};
 	gpu_test_mesh_capture = true;
+	sweep_seed();
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
 }
