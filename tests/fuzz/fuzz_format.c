@@ -1,5 +1,6 @@
 /* The .relief parser and everything a reader does after a successful open: records, block
- * errors, masks and full decoding (small files only, to bound memory). */
+ * errors, masks and full decoding, NaN-marked and drawn (small files only, to bound
+ * memory). */
 #include <stdlib.h>
 #include <string.h>
 
@@ -26,8 +27,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		uint32_t w, h;
 		relief_level_extent(&f->hdr, f->hdr.levels - 1, &w, &h);
 		float *heights = malloc(sizeof(float) * w * h);
-		relief_decode_level(f, f->hdr.levels - 1, 1, heights, mask ? NULL : NULL);
+		uint8_t *valid = malloc((size_t)w * h);
+		if (heights && valid) {
+			relief_decode_level(f, f->hdr.levels - 1, 1, heights, valid);
+			relief_decode_level_drawn(f, f->hdr.levels - 1, 1, heights, valid);
+		}
 		free(heights);
+		free(valid);
 	}
 	free(eps);
 	free(mask);

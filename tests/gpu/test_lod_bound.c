@@ -469,8 +469,8 @@ static struct relief_view view_along(const struct relief_view *v0, double along)
  * that its selection is settled), and at each pixel showing terrain in both the change of
  * the drawn point's signed vertical distance to one fixed surface (the mean of a finest
  * cell's two diagonals, lod.h), in pixels; the largest. */
-static double lod_pop(struct scene *s, const float *finest, uint32_t fw, uint32_t fh, const struct relief_view *from,
-                      struct relief_view *to, bool morph, float *own, float *frozen)
+static double lod_pop(struct scene *s, const float *drawn, const uint8_t *valid, uint32_t fw, uint32_t fh,
+                      const struct relief_view *from, struct relief_view *to, bool morph, float *own, float *frozen)
 {
 	struct relief_terrain_stats st;
 	struct relief_view f = *from;
@@ -487,8 +487,8 @@ static double lod_pop(struct scene *s, const float *finest, uint32_t fw, uint32_
 				continue;
 			struct relief_vec3 p = relief_view_unproject(to, x, y, own[k]), q = relief_view_unproject(to, x, y, frozen[k]);
 			double mp, mq;
-			relief_surface_vertical_error(s->f, finest, NULL, fw, fh, 1, p, &mp);
-			relief_surface_vertical_error(s->f, finest, NULL, fw, fh, 1, q, &mq);
+			relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, p, &mp);
+			relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, q, &mq);
 			double a = relief_view_segment_px(to, p, fabs(mp)), b = relief_view_segment_px(to, q, fabs(mq));
 			if (isfinite(a) && isfinite(b))
 				worst = fmax(worst, fabs((mp < 0 ? -a : a) - (mq < 0 ? -b : b)));
@@ -517,7 +517,7 @@ static int64_t drawn_triangles(struct scene *s, const struct relief_view *v0, do
  * under 1 cm; returns the largest of what the change of LOD alone does to the picture
  * over those moves (lod_pop()). A jump (vertices taking new heights at once) keeps its
  * size however short the move; a blend shrinks with it. *at: where that largest starts. */
-static double level_changes(struct scene *s, const float *finest, uint32_t fw, uint32_t fh,
+static double level_changes(struct scene *s, const float *drawn, const uint8_t *valid, uint32_t fw, uint32_t fh,
                             const struct relief_view *v0, bool morph, int changes, double *at, float *own,
                             float *frozen)
 {
@@ -540,7 +540,7 @@ static double level_changes(struct scene *s, const float *finest, uint32_t fw, u
 				a = m;
 		}
 		struct relief_view va = view_along(v0, a), vb = view_along(v0, b);
-		double pop = lod_pop(s, finest, fw, fh, &va, &vb, morph, own, frozen);
+		double pop = lod_pop(s, drawn, valid, fw, fh, &va, &vb, morph, own, frozen);
 		if (pop > worst)
 			worst = pop, *at = a;
 		start = b;
@@ -566,9 +566,10 @@ static void test_morph_continuous(void **state)
 	load_everything(&s);
 	uint32_t fw, fh;
 	relief_level_extent(&s.f->hdr, s.f->hdr.levels - 1, &fw, &fh);
-	float *finest = malloc(sizeof(float) * fw * fh), *own = malloc(sizeof(float) * W * H);
+	float *drawn = malloc(sizeof(float) * fw * fh), *own = malloc(sizeof(float) * W * H);
 	float *frozen = malloc(sizeof(float) * W * H);
-	assert_int_equal(relief_decode_level(s.f, s.f->hdr.levels - 1, 0, finest, NULL), 0);
+	uint8_t *valid = malloc((size_t)fw * fh);
+	assert_int_equal(relief_decode_level_drawn(s.f, s.f->hdr.levels - 1, 0, drawn, valid), 0);
 	assert_int_equal(relief_terrain_view_mesh_enable(s.view, 1u << 20), 0);
 	const struct relief_view v0 = {
 		.eye = { 49211.2, 49249.6, 3603.84 }, .target = { 81979.2, 82017.6, -10298.56 },
@@ -576,8 +577,8 @@ static void test_morph_continuous(void **state)
 		.loose_transitions = true, /* the change the test was made for; bounded strips change elsewhere */
 	};
 	double at_plain = 0, at_morphed = 0;
-	double plain = level_changes(&s, finest, fw, fh, &v0, false, 8, &at_plain, own, frozen);
-	double morphed = level_changes(&s, finest, fw, fh, &v0, true, 8, &at_morphed, own, frozen);
+	double plain = level_changes(&s, drawn, valid, fw, fh, &v0, false, 8, &at_plain, own, frozen);
+	double morphed = level_changes(&s, drawn, valid, fw, fh, &v0, true, 8, &at_morphed, own, frozen);
 	print_message("the largest of the first 8 changes of LOD, each over a move of under 1 cm: %.4f px unmorphed "
 	              "(%.3f m on), %.4f px morphed (%.3f m on)\n", plain, at_plain, morphed, at_morphed);
 	assert_true(plain >= 0.05);
@@ -585,7 +586,8 @@ static void test_morph_continuous(void **state)
 	 * smooth (docs/lod.md, "Morphing"); weights that start above 0 where the level changes
 	 * (sound weights with the levels of a view without morphing) jump by 0.50 px. */
 	assert_true(morphed < 0.25 * plain);
-	free(finest);
+	free(drawn);
+	free(valid);
 	free(own);
 	free(frozen);
 	scene_close(&s);
