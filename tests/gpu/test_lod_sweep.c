@@ -4,7 +4,9 @@
  * bundled DEMs (Luxembourg with its no-data border), the synthetic coasts whose flat sea
  * borders land (1025 and 2049 samples, 65-sample patches) and the cliffs; then the hard
  * terrains: Mont Blanc with no-data holes inside it (holes_dem()), Puget Sound moved to
- * projected coordinates in the millions of metres, and a 4097-sample coast rough at the
+ * projected coordinates in the millions of metres, Puget Sound with samples 4 times
+ * closer north-south than east-west (since the forty-fourth December 2026 session), and a
+ * 4097-sample coast rough at the
  * shore, a 7-level tree (65-sample patches) where both forced-split rules apply (five
  * levels, the finer border: lod_force.comp). Eyes anywhere over the raster and a tenth
  * of it beyond, from 20 m above a height in the terrain's range (so also inside
@@ -298,6 +300,15 @@ static void test_sweep_hard_terrains(void **state)
 	bound_buffers(&b);
 	sweep(&b, "Puget Sound at (4000 km, 5500 km)", sweep_views());
 	bound_close(&b);
+	/* samples 4 times closer north-south than east-west: every bound the selection and the
+	 * fine LOD take per axis (boxes, block edges, strips) meets unequal spacings. Negative
+	 * control, run when it was added (30 views a scene): the selection's patch boxes with
+	 * the two spacings swapped (lod_select_common.glsl) put this scene's view 13 66 px off
+	 * at tau 8, every other scene passing; swapped in the fine LOD's nearest sample
+	 * (terrain_factors.glsl) they did not fail those views. */
+	test_dem_load(DEM_PUGET, &dem);
+	dem.spacing_y = dem.spacing_x / 4;
+	sweep_dem(&dem, 129, "Puget Sound at 160 x 40 m");
 	dem = coast_dem(4097, 0);
 	assert_int_equal(sweep_dem(&dem, 65, "coast 4097"), 7);
 	gpu_test_assert_clean(vk);
