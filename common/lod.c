@@ -445,8 +445,11 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 		*mid = 0.0;
 	double gx = (p.x - f->hdr.origin_x) / (f->hdr.spacing_x * step);
 	double gy = (f->hdr.origin_y - p.y) / (f->hdr.spacing_y * step);
-	if (!(gx >= 0 && gy >= 0 && gx <= w - 1 && gy <= h - 1) || w < 2 || h < 2)
+	if (!(gx >= -1 && gy >= -1 && gx <= w && gy <= h) || w < 2 || h < 2)
 		return 0.0;
+	/* A drawn point outside the grid is on a terrain-edge curtain, off the edge by rounding */
+	gx = gx < 0 ? 0 : gx > w - 1 ? w - 1 : gx;
+	gy = gy < 0 ? 0 : gy > h - 1 ? h - 1 : gy;
 	uint32_t i = gx >= w - 1 ? w - 2 : (uint32_t)gx, j = gy >= h - 1 ? h - 2 : (uint32_t)gy;
 	const size_t k = (size_t)j * w + i;
 	if (valid && !valid[k] && !valid[k + 1] && !valid[k + w] && !valid[k + w + 1])

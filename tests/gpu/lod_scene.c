@@ -242,6 +242,13 @@ struct comparison compare(const struct scene *s, const struct relief_view *v, co
 			if (interior && d <= 0.0f)
 				c.holes++;
 			if (d > 0.0f && ref[y * W + x] > 0.0f) {
+				const struct relief_vec3 pr = relief_view_unproject(v, x, y, ref[y * W + x]);
+				const double er = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pr, NULL));
+				if (relief_view_segment_px(v, pr, er) > REF_OFF_PX) {
+					c.off_surface++;
+					c.both++;
+					continue;
+				}
 				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
 				double e = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pt, NULL));
 				double px = relief_view_segment_px(v, pt, e);
@@ -505,8 +512,9 @@ void within_tau_of_reference(struct scene *s, struct relief_view *v, const doubl
 		render(s, v, lod, &st);
 		struct comparison c = compare(s, v, ref, lod, drawn, valid, fw, fh);
 		print_message("%s, tau %g: %u patches, %llu triangles, %u holes, max vertical error %.3f px (%.1f m) over "
-		              "%u pixels, %u pinholes\n", what, v->tau, st.patches, (unsigned long long)st.triangles, c.holes,
-		              c.worst_px, c.worst_m, c.both, c.pinholes);
+		              "%u pixels, %u pinholes, %u off the surface in the reference\n", what, v->tau, st.patches,
+		              (unsigned long long)st.triangles, c.holes, c.worst_px, c.worst_m, c.both, c.pinholes,
+		              c.off_surface);
 		assert_int_equal(c.holes, 0);
 		assert_true(c.pinholes <= 1);
 		assert_true(c.both > min_pixels);

@@ -106,7 +106,12 @@ struct comparison {
 	/* pixels over tau that see through the surface all eight neighbours show, left out of
 	 * worst_px: the rasteriser's pinholes (below) */
 	uint32_t pinholes;
+	/* pixels where the reference itself is over REF_OFF_PX off the finest surface, left out
+	 * of worst_px: a terrain-edge curtain seen from outside, a near edge-on triangle whose
+	 * depth the rasteriser interpolates badly (relief bench lod leaves them out too) */
+	uint32_t off_surface;
 };
+#define REF_OFF_PX 0.1
 
 /* A LOD render (depth `lod`) against the full-resolution one (`ref`) of the same view. A
  * pixel is inside the silhouette when the reference shows terrain within ceil(tau) + 1

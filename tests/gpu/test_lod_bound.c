@@ -37,9 +37,9 @@ static void watertight_and_error_bound(enum test_dem dem, const struct pose *pos
 			render(&s, &v, lod, &st);
 			struct comparison c = compare(&s, &v, ref, lod, b.drawn, b.valid, fw, fh);
 			print_message("%s pose %zu tau %g%s: %u patches (reference %u), %u holes, max vertical error %.3f px "
-			              "(%.2f m) over %u pixels, %u pinholes\n", test_dem_name(dem), p, v.tau,
-			              v.morph ? " morphed" : "", st.patches, ref_patches, c.holes, c.worst_px, c.worst_m, c.both,
-			              c.pinholes);
+			              "(%.2f m) over %u pixels, %u pinholes, %u off the surface in the reference\n",
+			              test_dem_name(dem), p, v.tau, v.morph ? " morphed" : "", st.patches, ref_patches, c.holes,
+			              c.worst_px, c.worst_m, c.both, c.pinholes, c.off_surface);
 			assert_int_equal(c.holes, 0);
 			assert_true(c.pinholes <= 1);
 			assert_true(ref_patches > 0 && st.patches > 0);

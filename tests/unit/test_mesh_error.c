@@ -252,8 +252,13 @@ static void test_pixel_measure_mask(void **state)
 	z[2 * N + 2] = 8; /* the square's north-west corner; finest (1.5, 1.5), 10 m up */
 	e = relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ 15, 80 - 15, 10 }, &mid);
 	assert_true(fabs(e - 6) < 1e-9 && fabs(mid - 8) < 1e-9);
-	/* outside the grid: 0 */
-	assert_true(relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ -1, 40, 5 }, NULL) ==
+	/* a point on the western edge's curtain, 30 m below the edge, reads 30 m on either side
+	 * of the edge (rounding puts a drawn curtain point on either); beyond one cell out, 0 */
+	assert_true(relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ 0, 40, -30 }, NULL) ==
+	            -30.0);
+	assert_true(relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ -1e-9, 40, -30 },
+	                                          NULL) == -30.0);
+	assert_true(relief_surface_vertical_error(&file, z, valid, N, N, 1, (struct relief_vec3){ -11, 40, -30 }, NULL) ==
 	            0.0);
 }
 
