@@ -21,8 +21,9 @@
  * finest decoded surface, projected to pixels (the quantity tau bounds); max and RMS over all
  * frames. The full-resolution render runs first and is the reference: where it is itself
  * more than REF_NOISE_PX off the surface (a near edge-on triangle at a silhouette, whose
- * depth the rasteriser interpolates badly), the pixel measures the rasteriser, not the LOD,
- * and is left out of every method's statistics; the count is reported.
+ * depth the rasteriser interpolates badly, or a terrain-edge curtain), the pixel measures
+ * the rasteriser or the curtain, not the LOD, and is left out of every method's
+ * statistics; the count is reported.
  * Rechecked maximum (max_err_3x_px, for the methods that bound their error by tau: relief
  * and chunked): every pixel whose error comes out over tau is measured again on a render at
  * three times the resolution with three times tau, which is the same angular threshold and
