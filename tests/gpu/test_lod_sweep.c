@@ -17,7 +17,8 @@
  * mountains) to about 8 km higher, any heading, looking 2-87 degrees down, or (a quarter
  * of the views, where the eye is over data) a driver's 1.5-3 m above the decoded surface
  * looking 0-10 degrees down with the near plane at 0.5 m; a vertical field of view of
- * 10-110 degrees (50 until the forty-fourth December 2026 session, and no driver's eyes);
+ * 10-110 degrees, and in 30 % of the views a roll of up to 60 degrees either way (50
+ * degrees and no roll until the forty-fourth December 2026 session, and no driver's eyes);
  * tau 0.5 to 30, morphed or not, skirts on or off, each at random from a seed
  * (RELIEF_SWEEP_SEED, default 12345), so a failure names a view that can be drawn again.
  * A frame of more triangles than one capture holds on the device is captured in parts
@@ -174,10 +175,10 @@ static uint32_t pixels_within_tau(struct bound_scene *b, const struct relief_vie
 		*holes += c.holes > 0 || c.pinholes > 1;
 		*over += c.worst_px > v->tau;
 		print_message("%s view %d: against the full resolution %u holes, %u pinholes, max vertical error %.4f px "
-		              "(%.2f m) over %u pixels, tau %g%s, eye (%.2f, %.2f, %.2f) looking at (%.2f, %.2f, %.2f), fov "
-		              "%.2f, near %g\n", name, i, c.holes, c.pinholes, c.worst_px, c.worst_m, c.both, v->tau,
-		              v->morph ? " morphed" : "", v->eye.x, v->eye.y, v->eye.z, v->target.x, v->target.y,
-		              v->target.z, v->fovy * 180 / M_PI, v->znear);
+		              "(%.2f m) over %u pixels, tau %g%s, eye (%.2f, %.2f, %.2f) looking at (%.2f, %.2f, %.2f), roll "
+		              "%.4f rad, fov %.2f, near %g\n", name, i, c.holes, c.pinholes, c.worst_px, c.worst_m, c.both,
+		              v->tau, v->morph ? " morphed" : "", v->eye.x, v->eye.y, v->eye.z, v->target.x, v->target.y,
+		              v->target.z, v->roll, v->fovy * 180 / M_PI, v->znear);
 	}
 	return 1;
 }
@@ -220,6 +221,7 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 		v.morph = rnd() < 0.5;
 		v.zfar = 1e6;
 		v.fovy = 10 * pow(11, rnd()) * M_PI / 180; /* 10-110 degrees, as many below 33 as above */
+		v.roll = rnd() < 0.3 ? (2 * rnd() - 1) * M_PI / 3 : 0; /* a banked aircraft's, up to 60 degrees */
 		if (low)
 			v.znear = 0.5;
 		const struct relief_draw_options o = { .fine = RELIEF_FINE_ERRORS, .mesh = true, .no_skirts = rnd() < 0.5 };
@@ -258,16 +260,16 @@ static void sweep(struct bound_scene *b, const char *name, int views)
 		if (e.max_px > v.tau) {
 			over++;
 			print_message("%s view %d: tau %g%s: max %.4f px (%.2f m), regular worse %.4f, transition %.4f, "
-			              "eye (%.2f, %.2f, %.2f) heading %.4f pitch %.4f fov %.2f, %u patches\n",
+			              "eye (%.2f, %.2f, %.2f) heading %.4f pitch %.4f roll %.4f fov %.2f, %u patches\n",
 			              name, i, v.tau, v.morph ? " morphed" : "", e.max_px, e.max_m, e.max_px_regular_worse,
-			              e.max_px_transition, ex, ey, ez, yaw, pitch, v.fovy * 180 / M_PI, st.patches);
+			              e.max_px_transition, ex, ey, ez, yaw, pitch, v.roll, v.fovy * 180 / M_PI, st.patches);
 		}
 		if (m.split || m.junctions) {
 			bad++;
-			print_message("%s view %d: eye (%.2f, %.2f, %.2f) heading %.4f pitch %.4f rad, fov %.2f, tau %g%s%s: %llu "
+			print_message("%s view %d: eye (%.2f, %.2f, %.2f) heading %.4f pitch %.4f roll %.4f rad, fov %.2f, tau %g%s%s: %llu "
 			              "positions split (first at sample %lld, %lld), %llu T-junctions (%llu open, largest gap %.3g "
 			              "m)\n",
-			              name, i, ex, ey, ez, yaw, pitch, v.fovy * 180 / M_PI, v.tau, v.morph ? ", morphed" : "",
+			              name, i, ex, ey, ez, yaw, pitch, v.roll, v.fovy * 180 / M_PI, v.tau, v.morph ? ", morphed" : "",
 			              o.no_skirts ? ", no skirts" : "", (unsigned long long)m.split, (long long)m.split_at.col,
 			              (long long)m.split_at.row, (unsigned long long)m.junctions, (unsigned long long)m.open,
 			              m.max_gap_m);
