@@ -89,29 +89,50 @@ static inline bool level_coded(const struct packer *p, uint32_t l, int x, int y)
  * rule is a distance against the level's spacing, so a sample filled at a level is filled
  * at every coarser one, where it sits at the same place: the refined labels never clamp
  * (quantise_refined()). Samples farther out cost almost nothing as predictions. */
+/* The Chebyshev distance (finest samples) from level-l sample (x, y) to the data, at most:
+ * the fill's ring at the nearest raster sample, or the distance past the raster's edge if
+ * larger; *i receives that raster sample's index. */
+static inline uint64_t level_data_distance(const struct packer *p, uint32_t l, int x, int y, uint64_t *i)
+{
+	const uint64_t step = 1ull << (p->lay.levels - 1 - l), W = p->dem->width, H = p->dem->height;
+	const uint64_t X = (uint64_t)x * step, Y = (uint64_t)y * step;
+	const uint64_t cx = X < W ? X : W - 1, cy = Y < H ? Y : H - 1;
+	*i = cy * W + cx;
+	uint64_t d = p->ring ? p->ring[*i] : 0;
+	d = X - cx > d ? X - cx : d;
+	return Y - cy > d ? Y - cy : d;
+}
+
 static inline bool level_target(const struct packer *p, uint32_t l, int x, int y, double *h)
 {
 	if (!level_coded(p, l, x, y))
 		return false;
-	const uint64_t step = 1ull << (p->lay.levels - 1 - l), W = p->dem->width, H = p->dem->height;
-	const uint64_t X = (uint64_t)x * step, Y = (uint64_t)y * step;
-	const uint64_t cx = X < W ? X : W - 1, cy = Y < H ? Y : H - 1, i = cy * W + cx;
-	uint64_t d = p->ring ? p->ring[i] : 0;
-	d = X - cx > d ? X - cx : d;
-	d = Y - cy > d ? Y - cy : d;
-	if (d > step)
+	uint64_t i;
+	if (level_data_distance(p, l, x, y, &i) > 1ull << (p->lay.levels - 1 - l))
 		return false;
 	*h = p->target[i];
 	return true;
 }
 
-/* True when level-l sample (x, y) is an original, valid sample. */
+/* Whether level-l sample (x, y) is valid in its patch's mask. At the finest level: an
+ * original, valid sample. Above it: a coded sample within half the level's spacing
+ * (Chebyshev, finest samples) of a valid one, so at the data's height (level_target()).
+ * A renderer keeps a fragment where its nearest sample is valid, and the finest sample
+ * nearest a fragment lies within half a level-l spacing of the level-l sample nearest it;
+ * so a patch of any level draws wherever the finest level does (until the forty-fourth
+ * December 2026 session a coarse sample was valid where the finest sample under it was,
+ * and a coarse patch left out up to half its spacing of the data's edge: the terrain
+ * behind showed through), and past the data's edge at most half its spacing more. */
 static inline bool level_valid(const struct packer *p, uint32_t l, int x, int y)
 {
 	if (x < 0 || y < 0)
 		return false;
-	uint64_t step = 1ull << (p->lay.levels - 1 - l), X = (uint64_t)x * step, Y = (uint64_t)y * step;
-	return X < p->dem->width && Y < p->dem->height && p->dem->valid[Y * p->dem->width + X];
+	const uint32_t k = p->lay.levels - 1 - l;
+	if (k == 0)
+		return (uint32_t)x < p->dem->width && (uint32_t)y < p->dem->height &&
+		       p->dem->valid[(size_t)y * p->dem->width + (size_t)x];
+	uint64_t i;
+	return level_coded(p, l, x, y) && level_data_distance(p, l, x, y, &i) <= 1ull << (k - 1);
 }
 
 /* The last refined (even) index along a window side of n samples of a level of side S

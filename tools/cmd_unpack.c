@@ -80,8 +80,9 @@ int cmd_unpack(int argc, char **argv)
 			printf("usage: relief unpack FILE.relief OUT [--level L] [--raw] [--mask MASK]\n"
 			       "Writes the reconstructed heights (metres) of one level (default the finest):\n"
 			       "a float32 GeoTIFF, or with --raw little-endian float32, row-major from the\n"
-			       "north row, no header. No-data samples are NaN. --mask writes 1 byte per\n"
-			       "sample (1 = valid).\n");
+			       "north row, no header. No-data samples are NaN; above the finest level a\n"
+			       "sample within half the level's spacing of data is valid (it is drawn there,\n"
+			       "at the data's height). --mask writes 1 byte per sample (1 = valid).\n");
 			return 0;
 		case ':':
 		default:
