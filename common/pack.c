@@ -80,18 +80,10 @@ static inline bool level_coded(const struct packer *p, uint32_t l, int x, int y)
 	return x >= 0 && y >= 0 && (uint32_t)x < p->coded[l][0] && (uint32_t)y < p->coded[l][1];
 }
 
-/* The height a coded level-l sample (x, y) is quantised from, in *h, or false when the
- * packer leaves it to the prediction. Valid samples take the raster's height. So do the
- * samples within one level-l sample spacing (2^(L-1-l) finest samples, Chebyshev) of the
- * data, from the fill (common/fill.h) at no-data samples and from the nearest raster
- * sample past the raster's east and south edges: the half cell a renderer draws beyond a
- * valid sample leans towards its neighbours, so they must lie at the data's height. The
- * rule is a distance against the level's spacing, so a sample filled at a level is filled
- * at every coarser one, where it sits at the same place: the refined labels never clamp
- * (quantise_refined()). Samples farther out cost almost nothing as predictions. */
-/* The Chebyshev distance (finest samples) from level-l sample (x, y) to the data, at most:
- * the fill's ring at the nearest raster sample, or the distance past the raster's edge if
- * larger; *i receives that raster sample's index. */
+/* The Chebyshev distance (finest samples) from level-l sample (x, y) to the data: the
+ * fill's ring at the nearest raster sample, or the distance past the raster's edge if
+ * larger. Exact inside the raster; past its edge at most the true distance. *i receives
+ * that raster sample's index. */
 static inline uint64_t level_data_distance(const struct packer *p, uint32_t l, int x, int y, uint64_t *i)
 {
 	const uint64_t step = 1ull << (p->lay.levels - 1 - l), W = p->dem->width, H = p->dem->height;
@@ -103,6 +95,15 @@ static inline uint64_t level_data_distance(const struct packer *p, uint32_t l, i
 	return Y - cy > d ? Y - cy : d;
 }
 
+/* The height a coded level-l sample (x, y) is quantised from, in *h, or false when the
+ * packer leaves it to the prediction. Valid samples take the raster's height. So do the
+ * samples within one level-l sample spacing (2^(L-1-l) finest samples, Chebyshev) of the
+ * data, from the fill (common/fill.h) at no-data samples and from the nearest raster
+ * sample past the raster's east and south edges: the half cell a renderer draws beyond a
+ * valid sample leans towards its neighbours, so they must lie at the data's height. The
+ * rule is a distance against the level's spacing, so a sample filled at a level is filled
+ * at every coarser one, where it sits at the same place: the refined labels never clamp
+ * (quantise_refined()). Samples farther out cost almost nothing as predictions. */
 static inline bool level_target(const struct packer *p, uint32_t l, int x, int y, double *h)
 {
 	if (!level_coded(p, l, x, y))
@@ -119,10 +120,11 @@ static inline bool level_target(const struct packer *p, uint32_t l, int x, int y
  * (Chebyshev, finest samples) of a valid one, so at the data's height (level_target()).
  * A renderer keeps a fragment where its nearest sample is valid, and the finest sample
  * nearest a fragment lies within half a level-l spacing of the level-l sample nearest it;
- * so a patch of any level draws wherever the finest level does (until the forty-fourth
- * December 2026 session a coarse sample was valid where the finest sample under it was,
- * and a coarse patch left out up to half its spacing of the data's edge: the terrain
- * behind showed through), and past the data's edge at most half its spacing more. */
+ * so a patch of any level draws wherever the finest level does, and past the data's edge
+ * at most half its spacing more. (Until the forty-fourth December 2026 session a coarse
+ * sample was valid where the finest sample under it was: a coarse patch left out up to
+ * half its spacing of the data's edge, and a no-data sample on its grid cut a hole a
+ * coarse cell wide.) */
 static inline bool level_valid(const struct packer *p, uint32_t l, int x, int y)
 {
 	if (x < 0 || y < 0)
