@@ -6,9 +6,8 @@
  * terrains: Mont Blanc with no-data holes inside it (holes_dem()), Puget Sound moved to
  * projected coordinates in the millions of metres, Puget Sound with samples 4 times
  * closer north-south than east-west (since the forty-fourth December 2026 session), and a
- * 4097-sample coast rough at the
- * shore, a 7-level tree (65-sample patches) where both forced-split rules apply (five
- * levels, the finer border: lod_force.comp). Eyes anywhere over the raster and a tenth
+ * 4097-sample coast rough at the shore, a 7-level tree (65-sample patches) where both
+ * forced-split rules apply (five levels, the finer border: lod_force.comp). Eyes anywhere over the raster and a tenth
  * of it beyond, from 20 m above a height in the terrain's range (so also inside
  * mountains) to about 8 km higher, any heading, looking 2-87 degrees down, or (a quarter
  * of the views, where the eye is over data) a driver's 1.5-3 m above the decoded surface
@@ -36,7 +35,10 @@
  * the worst frame of each scene 0.945-0.988 tau. The forty-first, with the hard terrains
  * and the frames over one capture taken in parts: 300 a scene, 2,325 frames; 1,000 a
  * scene, 7,706 frames (624 million triangles); no seam, none over tau, the worst 0.998
- * tau (the 4097 coast). The 1025 coast is rough at the shore,
+ * tau (the 4097 coast). The forty-fourth, with drivers' eyes and fields of view (no
+ * banking, nine scenes): 300 a scene (seed 2026120501), 2,215 frames; 1,000 a scene (seed
+ * 44), 7,474 frames (557 million triangles); no seam, none over tau, the worst 0.998 tau
+ * (the coasts). The 1025 coast is rough at the shore,
  * where the sea splits beside the land; the 2049 one smooth for 32 samples, where the
  * sea stays up to 4 levels coarser (coast_dem()).
  * Negative controls, run when the test was written (30 views a scene): the evaluation
