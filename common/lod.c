@@ -447,7 +447,8 @@ double relief_surface_vertical_error(const struct relief_file *f, const float *h
 	double gy = (f->hdr.origin_y - p.y) / (f->hdr.spacing_y * step);
 	if (!(gx >= -1 && gy >= -1 && gx <= w && gy <= h) || w < 2 || h < 2)
 		return 0.0;
-	/* A drawn point outside the grid is on a terrain-edge curtain, off the edge by rounding */
+	/* A drawn point just outside the raster's extent lies on a terrain-edge curtain, off
+	 * the edge by rounding, or in the half cell kept past the last sample: both at the edge */
 	gx = gx < 0 ? 0 : gx > w - 1 ? w - 1 : gx;
 	gy = gy < 0 ? 0 : gy > h - 1 ? h - 1 : gy;
 	uint32_t i = gx >= w - 1 ? w - 2 : (uint32_t)gx, j = gy >= h - 1 ? h - 2 : (uint32_t)gy;

@@ -103,10 +103,11 @@ double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t 
  * which are data (NULL: all). A cell with a valid corner is measured whole, at its no-data
  * corners' decoded heights: a renderer keeps the fragments nearest to a valid sample, and
  * those lean towards the no-data corners (relief_mesh_error() measures the same cells). A
- * point within one cell outside the grid is measured at the nearest point of its edge: a
- * drawn point there lies on a terrain-edge curtain (relief_terrain_draw()) off the edge by
- * rounding, whose depth below the edge it then reads, on whichever side rounding put it.
- * 0 farther out and in a cell without a valid corner (nothing of it is drawn there).
+ * point within one cell outside the raster's extent is measured at the nearest point of
+ * its edge: a drawn point there lies on a terrain-edge curtain (relief_terrain_draw()) off
+ * the edge by rounding, whose depth below the edge it then reads on whichever side
+ * rounding put it, or in the half cell a renderer keeps past the last sample. 0 farther
+ * out and in a cell without a valid corner (nothing of it is drawn there).
  * `mid`, if not NULL, receives the signed distance to the mean of the two diagonals'
  * surfaces: one fixed reference, for differences of errors (popping). The nearer diagonal
  * is the reference the bound is stated against (either could be drawn), but it changes
