@@ -11,7 +11,7 @@ struct probe {
 	const struct relief_file *f;
 	const struct relief_view *v;
 	const float *z;
-	const uint8_t *valid; /* NULL: no-data is NaN in z */
+	const uint8_t *valid; /* NULL: every sample valid */
 	uint32_t w, h;
 	struct relief_mat4 vp; /* for positions relative to the eye */
 	/* the triangle: corners (finest-grid column, row), heights, twice its signed area */
@@ -49,8 +49,6 @@ static void probe_at(struct probe *p, double x, double y)
 	const uint32_t i = x >= p->w - 1.0 ? p->w - 2 : (uint32_t)x, j = y >= p->h - 1.0 ? p->h - 2 : (uint32_t)y;
 	const float *r0 = p->z + (size_t)j * p->w + i, *r1 = r0 + p->w;
 	const double a = r0[0], b = r0[1], c = r1[0], d = r1[1];
-	if (isnan(a) || isnan(b) || isnan(c) || isnan(d))
-		return; /* a cell with a corner of unknown height: nothing is promised there */
 	if (p->valid) {
 		const uint8_t *v0 = p->valid + (size_t)j * p->w + i, *v1 = v0 + p->w;
 		if (!v0[0] && !v0[1] && !v1[0] && !v1[1])

@@ -88,12 +88,12 @@ struct relief_mesh_error {
 
 /* Measures n triangles (3 n vertices; `quads`, the quad of each, may be NULL) drawn for
  * view v against the finest decoded surface (`finest`, w x h heights in metres at the
- * file's finest samples). With `valid` (w x h bytes, 1 = a valid sample) `finest` holds
- * every sample's decoded height, no-data ones too (relief_decode_level_drawn()): a cell
- * with a valid corner is measured whole, since a renderer keeps the part of it nearest its
- * valid corners and that part leans towards the others (the block errors bound it so:
- * docs/codec.md, "Errors"). With valid NULL, NaN marks no-data and a cell with a NaN
- * corner is skipped. The
+ * file's finest samples), every sample's decoded height, no-data ones too
+ * (relief_decode_level_drawn()), and `valid` (w x h bytes, 1 = a valid sample; NULL: all
+ * valid): a cell with a valid corner is measured whole, since a renderer keeps the part of
+ * it nearest its valid corners and that part leans towards the others (the block errors
+ * bound it so: docs/codec.md, "Errors"); a cell without one is skipped, as the pixel
+ * measure (relief_surface_vertical_error()) skips it. The
  * difference of the flat triangle and the finest surface (either diagonal in each cell)
  * is linear between the points where the triangle's edges cross the finest grid's lines
  * and diagonals, the grid's samples and cells' centres inside it, and its corners, so its

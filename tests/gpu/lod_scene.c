@@ -202,6 +202,19 @@ uint64_t render_seamless(struct scene *s, struct relief_view *v, const struct re
 	return (uint64_t)n;
 }
 
+/* The vertical error, in pixels of v, of the point pixel (x, y) shows at reversed depth d
+ * (> 0), against the finest level (drawn, valid: relief_surface_vertical_error()); *m, if
+ * not NULL, receives it in metres. */
+static double pixel_error(const struct scene *s, const struct relief_view *v, const float *drawn,
+                          const uint8_t *valid, uint32_t fw, uint32_t fh, int x, int y, float d, double *m)
+{
+	const struct relief_vec3 p = relief_view_unproject(v, x, y, d);
+	const double e = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, p, NULL));
+	if (m)
+		*m = e;
+	return relief_view_segment_px(v, p, e);
+}
+
 /* Pixel (x, y) of a LOD render over tau, farther than the reference: whether it also shows
  * something farther (reversed depth: smaller) than all eight neighbours, each of which
  * shows terrain within tau (see struct comparison). */
@@ -215,11 +228,8 @@ static bool pinhole(const struct scene *s, const struct relief_view *v, const fl
 			const int xx = x + dx, yy = y + dy;
 			if (dx == 0 && dy == 0)
 				continue;
-			if (xx < 0 || yy < 0 || xx >= W || yy >= H || !(lod[yy * W + xx] > d))
-				return false;
-			struct relief_vec3 pt = relief_view_unproject(v, xx, yy, lod[yy * W + xx]);
-			double e = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pt, NULL));
-			if (relief_view_segment_px(v, pt, e) > v->tau)
+			if (xx < 0 || yy < 0 || xx >= W || yy >= H || !(lod[yy * W + xx] > d) ||
+			    pixel_error(s, v, drawn, valid, fw, fh, xx, yy, lod[yy * W + xx], NULL) > v->tau)
 				return false;
 		}
 	return true;
@@ -242,16 +252,12 @@ struct comparison compare(const struct scene *s, const struct relief_view *v, co
 			if (interior && d <= 0.0f)
 				c.holes++;
 			if (d > 0.0f && ref[y * W + x] > 0.0f) {
-				const struct relief_vec3 pr = relief_view_unproject(v, x, y, ref[y * W + x]);
-				const double er = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pr, NULL));
-				if (relief_view_segment_px(v, pr, er) > REF_OFF_PX) {
+				if (pixel_error(s, v, drawn, valid, fw, fh, x, y, ref[y * W + x], NULL) > REF_OFF_PX) {
 					c.off_surface++;
 					c.both++;
 					continue;
 				}
-				struct relief_vec3 pt = relief_view_unproject(v, x, y, d);
-				double e = fabs(relief_surface_vertical_error(s->f, drawn, valid, fw, fh, 1, pt, NULL));
-				double px = relief_view_segment_px(v, pt, e);
+				double e, px = pixel_error(s, v, drawn, valid, fw, fh, x, y, d, &e);
 				if (px > v->tau && d < ref[y * W + x] && pinhole(s, v, lod, drawn, valid, fw, fh, x, y)) {
 					c.pinholes++;
 					c.both++;

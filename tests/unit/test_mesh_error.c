@@ -1,7 +1,7 @@
 /* relief_mesh_error() on hand-made surfaces and triangles whose answers are known: it finds
  * a peak between a triangle's corners, a crossing of a cell's diagonal, tells the two
- * diagonals apart, skips no-data cells (or, with a validity mask, the cells without a valid
- * corner), vertical triangles and points outside the frustum; the pixel measure
+ * diagonals apart, skips the cells without a valid corner (a validity mask), vertical
+ * triangles and points outside the frustum; the pixel measure
  * (relief_surface_vertical_error()) takes the same cells. */
 #include <math.h>
 #include <setjmp.h>
@@ -169,16 +169,20 @@ static void test_kinds(void **state)
 	assert_int_equal(e.kind_triangles[RELIEF_MESH_UNKNOWN], 1);
 }
 
-/* No-data cells, vertical triangles and points outside the frustum are left out. */
+/* Cells without a valid corner, vertical triangles and points outside the frustum are left
+ * out. */
 static void test_left_out(void **state)
 {
 	struct relief_view v = view_down();
 	flat(0);
-	for (int r = 1; r <= 3; r++) /* every cell the triangle touches has a no-data corner */
-		for (int c = 2; c <= 4; c++)
-			z[r * N + c] = NAN;
+	uint8_t valid[N * N];
+	memset(valid, 1, sizeof(valid));
+	for (int r = 1; r <= 4; r++) /* every cell the triangle touches has no valid corner */
+		for (int c = 2; c <= 5; c++)
+			valid[r * N + c] = 0;
 	const struct relief_mesh_vertex t[3] = { { 2, 1, 5, 1 }, { 4, 1, 5, 1 }, { 2, 3, 5, 1 } };
-	struct relief_mesh_error e = measure(t, 1, &v);
+	struct relief_mesh_error e;
+	relief_mesh_error(&file, &v, z, valid, N, N, t, NULL, 1, &e);
 	assert_int_equal(e.points, 0);
 	assert_int_equal(e.triangles, 0);
 	const struct relief_mesh_vertex curtain[3] = { { 0, 0, 0, 1 }, { 0, 0, -50, 1 }, { 0, 8, 0, 1 } };
