@@ -475,10 +475,42 @@ static int validate_body(struct relief_file *f, char *err, size_t err_size)
 	return ret;
 }
 
-/* Validates the metadata in f->meta (header already parsed) and copies the CRS text. */
+/* Fills f->gaps from the finest level up: a finest patch has gaps where it is MASKED or
+ * EMPTY, a coarser one where any of its four children has (a child without a record lies
+ * past the raster: all no-data). The children's footprints tile the parent's, so this is
+ * exactly "some finest sample under the footprint is no-data". Records are level-major,
+ * so children come after their parent. */
+static int derive_gaps(struct relief_file *f)
+{
+	const struct relief_header *h = &f->hdr;
+	if (!(f->gaps = malloc(h->index_records ? h->index_records : 1)))
+		return -ENOMEM;
+	for (uint32_t rec = h->index_records; rec-- > 0;) {
+		uint32_t id = relief_index_patch(h, rec), l, px, py;
+		relief_patch_coords(&f->layout, id, &l, &px, &py);
+		uint8_t g = 0;
+		if (l + 1 == h->levels) {
+			struct relief_patch_record r;
+			relief_record_read(record_bytes(f, rec), h->version, &r);
+			g = (r.flags & (RELIEF_PATCH_EMPTY | RELIEF_PATCH_MASKED)) != 0;
+		} else {
+			for (uint32_t k = 0; k < 4 && !g; k++) {
+				uint32_t c = relief_index_entry(h, relief_patch_id(l + 1, 2 * px + (k & 1), 2 * py + (k >> 1)));
+				g = c == UINT32_MAX || f->gaps[c];
+			}
+		}
+		f->gaps[rec] = g;
+	}
+	return 0;
+}
+
+/* Validates the metadata in f->meta (header already parsed), derives the gaps and copies
+ * the CRS text. */
 static int open_meta(struct relief_file *f, char *err, size_t err_size)
 {
 	int ret = validate_body(f, err, err_size);
+	if (ret == 0)
+		ret = derive_gaps(f);
 	if (ret < 0)
 		return ret;
 	f->crs = strndup((const char *)f->meta + f->hdr.crs_offset, f->hdr.crs_size);
@@ -592,6 +624,7 @@ void relief_file_close(struct relief_file *f)
 		close(f->fd);
 	free(f->meta_owned);
 	free(f->block_slot);
+	free(f->gaps);
 	free(f->crs);
 	free(f->path);
 	free(f);
@@ -610,6 +643,12 @@ void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_
 	    l + 1 < f->hdr.levels)
 		r->draw_error = relief_float_up(relief_draw_error_bound(r->error, 1u << (f->hdr.levels - 1 - l),
 		                                                        f->layout.delta[f->hdr.levels - 1]));
+}
+
+bool relief_file_patch_gaps(const struct relief_file *f, uint32_t id)
+{
+	uint32_t rec = relief_index_entry(&f->hdr, id);
+	return rec == UINT32_MAX || f->gaps[rec];
 }
 
 float relief_file_measured_draw_error(const struct relief_file *f, const struct relief_patch_record *r)

@@ -160,6 +160,8 @@ struct relief_file {
 	uint32_t max_stream;   /* largest patch stream, bytes */
 	uint32_t *block_slot;  /* per index record: its patch's record in the block section; UINT32_MAX: none
 	                        * (EMPTY, from version 5) */
+	uint8_t *gaps;         /* per index record: 1 where some finest sample under the patch's footprint is
+	                        * no-data or past the raster (relief_file_patch_gaps()) */
 	char *crs;             /* NUL-terminated copy of the CRS text (may be empty) */
 	char *path;            /* files only: the path it was opened with (for messages) */
 };
@@ -173,6 +175,11 @@ void relief_file_close(struct relief_file *f);
 const char *relief_file_name(const struct relief_file *f);
 
 void relief_file_record(const struct relief_file *f, uint32_t id, struct relief_patch_record *r);
+/* Whether some finest sample under patch id's footprint is no-data or lies past the
+ * raster (a finest patch under it is MASKED or EMPTY): where a coarser level's coverage
+ * differs from the finest level's (relief_patch_coverage_error(), lod.h). True for a patch
+ * without a record. Derived from the index when the file is opened. */
+bool relief_file_patch_gaps(const struct relief_file *f, uint32_t id);
 /* The drawn error E0(P) of record r (as relief_file_record() gives it) where the file
  * measured it (version 7 on), metres; else +infinity: the bound relief_file_record() gives
  * older files holds only where the patch's samples are valid, which a bound over every

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "lod.h"
+#include "patch_error.h"
 #include "strip_bound.h"
 
 int relief_view_check(const struct relief_view *v, const char **why)
@@ -176,6 +177,23 @@ bool relief_box_culled(const float m[16], const struct relief_box *b)
 	return false;
 }
 
+double relief_patch_coverage_error(const struct relief_file *f, uint32_t id)
+{
+	uint32_t l, px, py;
+	if (!relief_patch_coords(&f->layout, id, &l, &px, &py) || l + 1 >= f->layout.levels ||
+	    !relief_file_patch_gaps(f, id))
+		return 0.0;
+	return ldexp(hypot(f->hdr.spacing_x, f->hdr.spacing_y), (int)(f->layout.levels - 1 - l));
+}
+
+float relief_patch_select_error(const struct relief_file *f, uint32_t id, const struct relief_patch_record *r)
+{
+	if (r->flags & RELIEF_PATCH_EMPTY)
+		return r->draw_error; /* 0: nothing drawn, never split, never in a chain of forced splits */
+	float cover = relief_float_up(RELIEF_LOD_COARSE_SHARE * relief_patch_coverage_error(f, id));
+	return r->draw_error > cover ? r->draw_error : cover;
+}
+
 static bool wants_split(float err, float tau, bool was_split)
 {
 	return err > tau || (was_split && err > RELIEF_LOD_MERGE * tau);
@@ -207,7 +225,8 @@ static bool own_wish(const struct force_ctx *c, uint32_t l, uint32_t id, const s
 		return false;
 	struct relief_patch_record rec;
 	relief_file_record(c->f, id, &rec);
-	return wants_split(box_error(box, rec.draw_error, c->kappa), c->tau, c->split_prev[id]);
+	return wants_split(box_error(box, relief_patch_select_error(c->f, id, &rec), c->kappa), c->tau,
+	                   c->split_prev[id]);
 }
 
 /* Patch (l, x, y) wants to split by the usual rule, with its hysteresis bit, or is forced
@@ -369,7 +388,7 @@ uint32_t relief_lod_select(const struct relief_file *f, const struct relief_view
 		relief_patch_box(f, &o, id, &box);
 		struct relief_patch_record rec;
 		relief_file_record(f, id, &rec);
-		float err = box_error(&box, rec.draw_error, kappa);
+		float err = box_error(&box, relief_patch_select_error(f, id, &rec), kappa);
 		bool wish = l + 1 < lay->levels &&
 		            (wants_split(err, tau, split_prev[id]) || forced);
 		split_next[id] = wish;

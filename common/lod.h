@@ -157,6 +157,26 @@ double relief_drawn_height_bound(const struct relief_file *f, const uint32_t *id
  * falls below RELIEF_LOD_MERGE * tau_c, so a still camera does not flicker. */
 #define RELIEF_LOD_MERGE 0.8f
 
+/* Coverage. A level draws a fragment where its sample nearest to it is valid (docs/lod.md,
+ * "No-data"), and a coarse sample is valid where data lies within half its level's spacing
+ * (docs/format.md, "Masks"). So above the finest level a patch with gaps under it
+ * (relief_file_patch_gaps()) draws everything the finest level draws there and up to s
+ * finest samples past it (s = 2^(levels - 1 - l), the level's spacing in finest samples;
+ * masks of packers before the forty-fourth December 2026 session: up to s / 2 short of it
+ * or past it): an edge of the data moves by at most s finest cells' diagonals when the
+ * level changes. relief_patch_coverage_error() is that distance in metres; 0 at the finest
+ * level and where the patch has no gaps. The selection projects it like a vertical error
+ * (a segment of any direction projects to at most kappa e / r, relief_view_error_kappa()).
+ * The fine LOD does not move coverage, so relief's selection holds it to the whole of tau:
+ * the error it projects, relief_patch_select_error() (on the GPU and in
+ * relief_lod_select()), is the larger of E0(P) and RELIEF_LOD_COARSE_SHARE times the
+ * coverage error (the baselines' selections, which take the whole of tau, to half of it);
+ * an EMPTY patch keeps its 0.
+ * Without it a coarse patch's coverage past a coast or hole could be hundreds of pixels
+ * off from near by (docs/lod.md, "No-data"). */
+double relief_patch_coverage_error(const struct relief_file *f, uint32_t id);
+float relief_patch_select_error(const struct relief_file *f, uint32_t id, const struct relief_patch_record *r);
+
 /* A patch's border charges: for each side s (0 north, 1 south, 2 west, 3 east) and level
  * k = 1..4, at [4 s + k - 1], the largest over the patch's blocks along that side of what
  * their edge there must keep within tau when drawn in segments of 2^k samples: eps_k, or

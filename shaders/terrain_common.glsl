@@ -11,7 +11,7 @@ struct Instance {
 	float q2;        // metres per quantum at the patch's level
 	ivec2 base;      // finest-grid index (column, row) of the patch's sample (0, 0), minus the camera's cell
 	int scale;       // finest samples per sample of the patch's level
-	float err;       // E0(P), the drawn error (common/format.h), metres
+	float err;       // the selection's error (PatchInfo), metres
 	float skirt;     // skirt depth, metres
 	uint px, py;     // the patch's position in its level
 	float pad;
@@ -61,9 +61,10 @@ uint border_items(uint blocks) { return 4u * blocks + 4u; }
 // terrain's outer edge (0 north, 1 south, 2 west, 3 east) in bits 30-31.
 const uint CURTAIN_SLOT_MASK = 0x3fffffffu;
 
-// Static per-patch data from the file: heights of the reconstruction, the drawn error E0(P)
-// (the selection's error, common/format.h), skirt depth (negative for patches with nothing
-// to draw).
+// Static per-patch data from the file: heights of the reconstruction, the selection's error
+// (the drawn error E0(P), common/format.h, or where the data has gaps under a coarse patch
+// its share of the coverage error if larger: relief_patch_select_error(), common/lod.h),
+// skirt depth (negative for patches with nothing to draw).
 struct PatchInfo {
 	float hmin, hmax, err, skirt;
 };

@@ -190,7 +190,8 @@ int relief_terrain_create(struct relief_vk *vk, const struct relief_file *f, str
 		struct relief_patch_record r;
 		relief_file_record(f, id, &r);
 		bool empty = r.flags & RELIEF_PATCH_EMPTY;
-		info[e] = (struct patch_info){ r.height_min, r.height_max, r.draw_error, empty ? -1.0f : skirt_depth(f, id, &r) };
+		info[e] = (struct patch_info){ r.height_min, r.height_max, relief_patch_select_error(f, id, &r),
+			                       empty ? -1.0f : skirt_depth(f, id, &r) };
 	}
 	if ((ret = relief_vk_buffer_init(vk, &t->info, sizeof(*info) * t->count,
 	                                 VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,

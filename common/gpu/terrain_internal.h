@@ -61,7 +61,7 @@ struct draw_push {
 _Static_assert(sizeof(struct draw_push) == 128, "draw push block");
 
 struct patch_info {
-	float hmin, hmax, err, skirt; /* err: the drawn error E0(P), relief_patch_record's draw_error */
+	float hmin, hmax, err, skirt; /* err: the selection's error, relief_patch_select_error() (lod.h) */
 };
 
 struct instance {

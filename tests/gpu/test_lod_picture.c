@@ -430,6 +430,132 @@ static void test_nodata_hidden(void **state)
 	gpu_test_assert_clean(vk);
 }
 
+/* Pixels the frame `lod` draws where the full-resolution frame `ref` of the same view shows
+ * background: how many (*n), and the largest distance (pixel centres, Euclidean) from one
+ * of them to the nearest pixel `ref` draws, up to `cap`. */
+static double over_coverage_px(const float *ref, const float *lod, int W, int H, int cap, uint32_t *n)
+{
+	double worst = 0.0;
+	*n = 0;
+	for (int y = 0; y < H; y++)
+		for (int x = 0; x < W; x++) {
+			if (!(lod[y * W + x] > 0.0f) || ref[y * W + x] > 0.0f)
+				continue;
+			(*n)++;
+			double best = cap;
+			for (int yy = y - cap; yy <= y + cap; yy++)
+				for (int xx = x - cap; xx <= x + cap; xx++)
+					if (xx >= 0 && yy >= 0 && xx < W && yy < H && ref[yy * W + xx] > 0.0f)
+						best = fmin(best, hypot(xx - x, yy - y));
+			worst = fmax(worst, best);
+		}
+	return worst;
+}
+
+/* What the finest level draws of a flat plain at height 0 (N x N samples 30 m apart,
+ * grid_dem()) with validity `valid`, seen by v: 1 where the ray through a pixel's centre
+ * meets the plane at a point whose nearest sample is valid, else 0 (the fragment shader's
+ * rule, docs/lod.md "No-data"). Worked out here rather than rendered: a frame's coverage
+ * follows its selection, which splits a flat plain (E0(P) 0) only for coverage itself. */
+static void plain_coverage(const struct relief_view *v, const uint8_t *valid, int N, float *out)
+{
+	for (int y = 0; y < (int)v->height; y++)
+		for (int x = 0; x < (int)v->width; x++) {
+			struct relief_vec3 p = relief_view_unproject(v, x, y, 0.5);
+			double t = -v->eye.z / (p.z - v->eye.z);
+			double col = (v->eye.x + t * (p.x - v->eye.x)) / 30.0;
+			double row = (N - 1) - (v->eye.y + t * (p.y - v->eye.y)) / 30.0;
+			long c = lround(col), r = lround(row);
+			out[y * (int)v->width + x] =
+				t > 0 && c >= 0 && r >= 0 && c < N && r < N && valid[(size_t)r * (size_t)N + (size_t)c];
+		}
+}
+
+/* Coverage past no-data moves by at most tau. A coarse patch draws up to its level's
+ * spacing past the data's edge (docs/lod.md, "No-data"), so the selection splits where
+ * that projects beyond tau (relief_patch_select_error()). Every pixel a frame draws where
+ * the full-resolution frame shows background lies within tau + 1 pixels (the rasteriser's
+ * pixel) of one that frame draws, the frame leaves no hole in it, and the no-data shows.
+ * Two scenes: a flat plain (every E0(P) 0, so that only coverage makes a patch split)
+ * around a round no-data lake, 513 x 513 samples 30 m apart in 65-sample patches (4
+ * levels: the root's samples 8 apart), from above and obliquely, against its coverage
+ * worked out (plain_coverage()); and Puget Sound with its water as no-data (a real
+ * coast), from above, against the full-resolution frame, within tau there too. Negative
+ * control, run when this was written (the selection's error E0(P) alone): the plain's
+ * root patch drawn alone from 3 km at tau 1, 4,330 pixels past the worked-out coverage,
+ * up to 20.5 px from it. */
+static void test_coverage_within_tau(void **state)
+{
+	enum { N = 513, CAP = 48 };
+	const double lx = 200.5, ly = 300.3, lr = 37.3; /* the lake: centre (column, row) and radius, samples */
+	const double cx = 30.0 * lx, cy = 30.0 * (N - 1 - ly); /* its centre, world */
+	const struct named_pose { const char *what; struct pose pose; bool hole_at_centre; } lake[] = {
+		{ "straight down from 3 km", { { cx, cy, 3000 }, { cx, cy, 0 } }, true },
+		{ "straight down from 12 km", { { cx, cy, 12000 }, { cx, cy, 0 } }, true },
+		{ "obliquely from 1.5 km", { { cx, cy - 3000, 1500 }, { cx, cy, 0 } }, false },
+	}, sound[] = {
+		{ "from 40 km", { { 80000, 100000, 40000 }, { 80000, 100001, 0 } }, false },
+		{ "from 8 km", { { 60000, 110000, 8000 }, { 60000, 110001, 0 } }, false },
+	};
+	const double taus[] = { 1.0, 4.0, 16.0 };
+	for (int scene = 0; scene < 2; scene++) {
+		struct bound_scene b;
+		struct relief_dem dem;
+		if (scene == 0) {
+			dem = grid_dem(N);
+			for (int y = 0; y < N; y++)
+				for (int x = 0; x < N; x++)
+					dem.valid[(size_t)y * N + x] = hypot(x - lx, y - ly) > lr;
+			bound_open_dem_patch(&b, vk, &dem, 65);
+		} else {
+			test_dem_load(DEM_PUGET, &dem);
+			for (size_t i = 0; i < (size_t)dem.width * dem.height; i++)
+				dem.valid[i] = dem.heights[i] > 0.5f; /* the Sound and the sea as no-data */
+			bound_open_dem(&b, vk, &dem);
+		}
+		relief_dem_finish(&dem);
+		const struct named_pose *cases = scene == 0 ? lake : sound;
+		const size_t n_cases = scene == 0 ? sizeof(lake) / sizeof(lake[0]) : sizeof(sound) / sizeof(sound[0]);
+		for (size_t c = 0; c < n_cases; c++) {
+			struct relief_view v = pose_view(&cases[c].pose);
+			struct relief_terrain_stats st;
+			if (scene == 0)
+				plain_coverage(&v, b.valid, N, b.ref);
+			else
+				render(&b.s, &v, b.ref, &st);
+			for (size_t t = 0; t < sizeof(taus) / sizeof(taus[0]); t++) {
+				v.tau = taus[t];
+				render(&b.s, &v, b.lod, &st);
+				uint32_t ids[4096], n, over;
+				const uint32_t levels = drawn_levels(&b.s, ids, &n);
+				const double worst = over_coverage_px(b.ref, b.lod, BW, BH, CAP, &over);
+				struct comparison cmp = { 0 };
+				if (scene == 1) {
+					cmp = compare(&b.s, &v, b.ref, b.lod, b.drawn, b.valid, b.fw, b.fh);
+					assert_true(cmp.worst_px <= v.tau && cmp.both > (uint32_t)BW * BH / 8);
+				} else { /* a hole: the plain shows there and all around, the frame does not */
+					for (int y = 1; y + 1 < BH; y++)
+						for (int x = 1; x + 1 < BW; x++) {
+							bool all = true;
+							for (int k = 0; k < 9; k++)
+								all = all && b.ref[(y - 1 + k / 3) * BW + x - 1 + k % 3] > 0.0f;
+							cmp.holes += all && !(b.lod[y * BW + x] > 0.0f);
+						}
+				}
+				print_message("%s, %s, tau %g: %u patches (levels mask 0x%x), %u pixels drawn past the full-resolution "
+				              "frame's, at most %.2f px from it; %u holes, max error %.3f px\n",
+				              scene ? "Puget Sound" : "lake", cases[c].what, v.tau, n, levels, over, worst,
+				              cmp.holes, cmp.worst_px);
+				assert_true(worst <= v.tau + 1.0);
+				assert_int_equal(cmp.holes, 0);
+				if (cases[c].hole_at_centre)
+					assert_true(b.lod[(BH / 2) * BW + BW / 2] <= 0.0f);
+			}
+		}
+		bound_close(&b);
+	}
+}
+
 /* Blocks without a valid sample are not tessellated (block_has_data() in lod_factors.comp):
  * the picture, colour and depth, is bit for bit the one drawn with them, and fewer
  * triangles are drawn, on Luxembourg (no-data outside the country, and the padding of its
@@ -498,6 +624,7 @@ int main(void)
 		cmocka_unit_test(test_face_cull_keeps_picture),
 		cmocka_unit_test(test_old_version_renders),
 		cmocka_unit_test(test_nodata_hidden),
+		cmocka_unit_test(test_coverage_within_tau),
 		cmocka_unit_test(test_blocks_without_data_culled),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);

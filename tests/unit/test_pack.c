@@ -13,6 +13,7 @@
 #include "decode.h"
 #include "fill.h"
 #include "format.h"
+#include "lod.h"
 #include "pack.h"
 #include "patch_error.h"
 
@@ -562,6 +563,57 @@ static void test_nodata_stays_nodata(void **state)
 	relief_dem_finish(&p.dem);
 }
 
+/* Which patches have gaps under them (relief_file_patch_gaps(): some finest sample under
+ * the footprint no-data or past the raster), against a brute-force look at the raster, and
+ * the error the selection projects (relief_patch_select_error()): E0(P), or above the
+ * finest level where the patch has gaps, half the coverage error (2^(levels - 1 - l)
+ * finest cells' diagonals) when that is larger. Returns the patches with gaps. */
+static uint32_t gaps_for(enum test_dem d, uint32_t patch)
+{
+	struct packed p = { 0 };
+	test_dem_load(d, &p.dem);
+	pack(&p, test_dem_name(d), 1.0, 2, patch, 0);
+	const struct relief_header *h = &p.f->hdr;
+	const uint32_t W = p.dem.width, H = p.dem.height, L = h->levels;
+	uint32_t with_gaps = 0, raised = 0;
+	for (uint32_t l = 0; l < L; l++) {
+		const uint32_t span = (h->patch_size - 1) << (L - 1 - l);
+		for (uint32_t py = 0; py < 1u << l; py++)
+			for (uint32_t px = 0; px < 1u << l; px++) {
+				bool gap = false;
+				for (uint32_t y = py * span; y <= (py + 1) * span && !gap; y++)
+					for (uint32_t x = px * span; x <= (px + 1) * span && !gap; x++)
+						gap = x >= W || y >= H || !p.dem.valid[(size_t)y * W + x];
+				const uint32_t id = relief_patch_id(l, px, py);
+				assert_int_equal(relief_file_patch_gaps(p.f, id), gap);
+				with_gaps += gap;
+				struct relief_patch_record r;
+				relief_file_record(p.f, id, &r);
+				const float e = relief_patch_select_error(p.f, id, &r);
+				const double cover = ldexp(hypot(h->spacing_x, h->spacing_y), (int)(L - 1 - l));
+				assert_true(e >= r.draw_error);
+				if (gap && l + 1 < L && !(r.flags & RELIEF_PATCH_EMPTY)) {
+					assert_true(e >= RELIEF_LOD_COARSE_SHARE * cover);
+					raised += e > r.draw_error;
+				} else {
+					assert_true(e == r.draw_error);
+				}
+			}
+	}
+	print_message("%s at %u: %u of the tree's patches have gaps under them, %u selection errors raised by coverage\n",
+	              test_dem_name(d), patch, with_gaps, raised);
+	unpack(&p);
+	relief_dem_finish(&p.dem);
+	return with_gaps;
+}
+
+static void test_patch_gaps(void **state)
+{
+	assert_true(gaps_for(DEM_LUX, 65) > 0);   /* no-data outside the border */
+	assert_true(gaps_for(DEM_ALPS, 129) > 0); /* 647^2 samples padded to 1025^2 */
+	assert_int_equal(gaps_for(DEM_PUGET, 129), 0); /* 1025^2: fills its grid, no no-data */
+}
+
 /* relief_fill_nodata() on a raster with two valid islands: valid heights copied bit for
  * bit, each sample's ring its Chebyshev distance to the nearest valid sample, the first
  * ring within [min, max] of its valid 8-neighbours and every fill within the valid range;
@@ -752,6 +804,7 @@ int main(void)
 		cmocka_unit_test(test_drawn_error_synthetic),
 		cmocka_unit_test(test_deterministic),
 		cmocka_unit_test(test_nodata_stays_nodata),
+		cmocka_unit_test(test_patch_gaps),
 		cmocka_unit_test(test_fill_rings),
 		cmocka_unit_test(test_nodata_rim_at_data_height),
 		cmocka_unit_test(test_windows_change_nothing),
