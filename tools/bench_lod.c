@@ -23,7 +23,12 @@
  * more than REF_NOISE_PX off the surface (a near edge-on triangle at a silhouette, whose
  * depth the rasteriser interpolates badly, or a terrain-edge curtain), the pixel measures
  * the rasteriser or the curtain, not the LOD, and is left out of every method's
- * statistics; the count is reported.
+ * statistics; the count is reported (excluded_pixels). So is every other pixel where a
+ * method's frame shows a terrain-edge curtain (curtain_pixels: the pixels whose depth
+ * changes when the frame is drawn again without curtains, bench_lod_measure.c): where the
+ * level of detail moves coverage beside no-data (within tau) or a silhouette (within tau)
+ * in front of a curtain's inner face, the reference shows the surface or nothing there,
+ * and the curtain's depth below the edge would read as several tau.
  * Rechecked maximum (max_err_3x_px, for the methods that bound their error by tau: relief
  * and chunked): every pixel whose error comes out over tau is measured again on a render at
  * three times the resolution with three times tau, which is the same angular threshold and
@@ -368,7 +373,7 @@ static void result_print_json(const struct run *r, const struct config *cfg, con
 	       "\"camera_popping_px\":%.4f,\"popping_pair_median_px\":%.5f,\"popping_pair_max_px\":%.5f,"
 	       "\"popping_pairs\":%u,\"popping_events\":%u,\"popping_event_pixels\":%llu,"
 	       "\"popping_pixel_max_px\":%.4f,\"popping_excluded_pixels\":%llu,"
-	       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,"
+	       "\"shade_popping\":%.4f,\"shade_err\":%.3f,\"pixels\":%llu,\"excluded_pixels\":%llu,\"curtain_pixels\":%llu,"
 	       "\"frames\":%zu,\"runs\":%u,\"width\":%u,\"height\":%u,\"face_culled_frames\":%u",
 	       c->method, c->param, res->ms_median, res->ms_p95, res->lod_ms, res->select_ms,
 	       res->triangles, res->quads, res->patches, res->max_err, res->p999_err, res->rms_err,
@@ -376,7 +381,8 @@ static void result_print_json(const struct run *r, const struct config *cfg, con
 	       res->pop_events, (unsigned long long)res->pop_event_pixels, res->pop_pixel_max,
 	       (unsigned long long)res->pop_excluded, res->shade_popping, res->shade_err,
 	       (unsigned long long)res->pixels,
-	       (unsigned long long)res->excluded, 2 * (size_t)r->frames, runs, w, h, res->face_culled);
+	       (unsigned long long)res->excluded, (unsigned long long)res->curtain, 2 * (size_t)r->frames, runs, w, h,
+	       res->face_culled);
 	if (res->max_err_3x >= 0)
 		printf(",\"max_err_3x_px\":%.4f,\"over_tau_pixels\":%llu,\"unresolved_pixels\":%llu,"
 		       "\"recheck_diff_px\":%.4f,\"recheck_rms_diff_px\":%.5f",
@@ -431,10 +437,10 @@ static void result_print_text(const struct config *c, const struct result *res)
 	if (res->mesh_max >= 0)
 		snprintf(mm, sizeof(mm), "%.3f", res->mesh_max);
 	printf("%-10s %7g %10.2f %10.2f %9.3f %8.3f %11.0f %8.1f %10.3f %9s %9s %9.2f %10.3f %10.5f %10.4f "
-	       "%9llu\n",
+	       "%9llu %8llu\n",
 	       c->method, c->param, res->ms_median, res->ms_p95, res->lod_ms, res->select_ms,
 	       res->triangles, res->patches, res->max_err, m3, mm, res->p999_err, res->rms_err,
-	       res->popping, res->camera_popping, (unsigned long long)res->excluded);
+	       res->popping, res->camera_popping, (unsigned long long)res->excluded, (unsigned long long)res->curtain);
 }
 
 /* --passes, text output: each configuration's LOD pass medians, their sum, and lod_ms. */
@@ -655,9 +661,9 @@ int bench_lod(int argc, char **argv)
 			       "and %u spread evenly); popping and cam_pop: means over the line's %u pairs; times, errors over the "
 			       "pairs measured\n",
 			       r.flight_pairs + 1, frames, every, r.flight_pairs);
-		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %9s %9s %10s %10s %10s %9s\n", "method", "tau/px",
+		printf("%-10s %7s %10s %10s %9s %8s %11s %8s %10s %9s %9s %9s %10s %10s %10s %9s %8s\n", "method", "tau/px",
 		       "ms_median", "ms_p95", "lod_ms", "sel_ms", "triangles", "patches", "max_err", "max_3x", "mesh_max",
-		       "p99.9", "rms_err", "popping", "cam_pop", "excluded");
+		       "p99.9", "rms_err", "popping", "cam_pop", "excluded", "curtain");
 	}
 	struct result res[MAX_CONFIGS] = { 0 };
 	if ((ret = runs_measure(&r, cfg, n, runs, res)) < 0 || (passes && (ret = measure_passes(&r, cfg, n, res)) < 0))

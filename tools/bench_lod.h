@@ -50,6 +50,7 @@ struct result {
 	double max_err_3x, recheck_diff;    /* rechecked maximum (top of the file), -1 if not rechecked */
 	double recheck_rms;                 /* RMS of the changes rechecks made */
 	uint64_t pixels, excluded; /* pixel-frames measured, and left out as reference noise */
+	uint64_t curtain;          /* pixel-frames left out as terrain-edge curtains the reference does not show there */
 	uint64_t over_tau, unresolved; /* pixel-frames rechecked, and those a recheck could not resolve */
 	uint32_t face_culled;          /* timed frames of the first run drawn with back faces culled */
 	/* Triangle by triangle (relief_mesh_error(), over the analysed run's frames): the

@@ -16,9 +16,10 @@
 #include "terrain.h"
 
 /* Errors of one rendered frame (depth in the target) against the finest surface: signed
- * per-pixel error in `err` (NaN where there is no terrain or the reference is noise), and
- * the statistics accumulated into `a` and `res`; with a == NULL only `err` is written.
- * Frame f of the run's sequence. */
+ * per-pixel error in `err` (NaN where there is no terrain or the reference is noise, or
+ * where `curtain`, if not NULL, marks a terrain-edge curtain), and the statistics
+ * accumulated into `a` and `res`; with a == NULL only `err` is written. Frame f of the
+ * run's sequence. */
 struct error_stats {
 	double worst, sum2;
 	uint64_t *hist; /* 0.01 px bins up to 100 px, for the 99.9th percentile */
@@ -33,7 +34,7 @@ struct error_stats {
 enum { BINS = 10001 };
 
 static void frame_errors(struct run *r, const struct config *c, const struct relief_view *v, uint32_t f, float *err,
-                         struct error_stats *a, struct result *res)
+                         const uint8_t *curtain, struct error_stats *a, struct result *res)
 {
 	const uint32_t W = r->gpu.target.width, H = r->gpu.target.height;
 	const float *depth = r->gpu.target.depth_readback.map;
@@ -55,6 +56,10 @@ static void frame_errors(struct run *r, const struct config *c, const struct rel
 			} else if (ref[k] > REF_NOISE_PX) {
 				if (a)
 					res->excluded++;
+				continue;
+			} else if (curtain && curtain[k]) {
+				if (a)
+					res->curtain++;
 				continue;
 			}
 			if (!isfinite(px))
@@ -226,6 +231,42 @@ struct relief_view bench_lod_config_view(const struct config *c, const struct re
 	return v;
 }
 
+/* What mark_curtains() keeps between frames. */
+struct curtain_scratch {
+	float *depth;
+	uint8_t *rgba, *curtain;
+};
+
+/* The pixels of the frame just drawn (frame i, in the target) where a terrain-edge curtain
+ * shows: those whose depth changes when the same frame is drawn again without curtains
+ * (relief_draw_options.no_skirts; the same level of detail, since selecting again for the
+ * same camera keeps it, as for recheck()). A curtain is not the surface, so its pixels say
+ * nothing of the surface's error: the ones the reference shows too are left out as its
+ * noise, and a frame can show others where the level of detail moves coverage (up to tau
+ * past the data's edge, docs/lod.md "No-data") or a silhouette (within tau) in front of a
+ * curtain's inner face, 1-3 km below the edge; measured, they read as several tau. The
+ * target's depth and colour are put back as the frame drew them. */
+static int mark_curtains(struct run *r, const struct config *c, struct relief_terrain_view *tv,
+                         const struct relief_view *v, uint32_t i, struct curtain_scratch *s)
+{
+	const size_t px = (size_t)r->gpu.target.width * r->gpu.target.height;
+	float *depth = r->gpu.target.depth_readback.map;
+	uint8_t *rgba = r->gpu.target.color_readback.map;
+	memcpy(s->depth, depth, sizeof(float) * px);
+	memcpy(s->rgba, rgba, 4 * px);
+	struct relief_draw_options o = c->opts;
+	o.no_skirts = true;
+	struct relief_terrain_stats st;
+	int ret = relief_terrain_draw(r->gpu.terrain, tv, v, &r->gpu.target, 1001 + i, &o, &st);
+	if (ret < 0)
+		return ret;
+	for (size_t k = 0; k < px; k++)
+		s->curtain[k] = depth[k] != s->depth[k];
+	memcpy(depth, s->depth, sizeof(float) * px);
+	memcpy(rgba, s->rgba, 4 * px);
+	return 0;
+}
+
 int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const struct frame_times *t,
                       struct result *res)
 {
@@ -233,6 +274,8 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 	float *err = malloc(sizeof(float) * W * H), *prev = malloc(sizeof(float) * W * H);
 	float *frozen = malloc(sizeof(float) * W * H), *frozen_depth = malloc(sizeof(float) * W * H);
 	uint8_t *frozen_rgba = malloc((size_t)4 * W * H);
+	struct curtain_scratch scratch = { malloc(sizeof(float) * W * H), malloc((size_t)4 * W * H),
+		                           malloc((size_t)W * H) };
 	/* per pair, NaN where not measured (no terrain in view): popping, camera and shade popping */
 	double *pair = malloc(sizeof(double) * 3 * (r->frames ? r->frames : 1));
 	for (uint32_t k = 0; pair && k < 3 * r->frames; k++)
@@ -246,7 +289,8 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 		.over_px = malloc(sizeof(float) * W * H),
 	};
 	struct relief_terrain_view *tv = NULL;
-	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pair && a.hist && a.over && a.over_px
+	int ret = err && prev && frozen && frozen_depth && frozen_rgba && pair && a.hist && a.over && a.over_px &&
+	                  scratch.depth && scratch.rgba && scratch.curtain
 	              ? relief_terrain_view_create(r->gpu.terrain, &tv)
 	              : -ENOMEM;
 	if (ret == 0 && analyse && r->mesh)
@@ -288,7 +332,7 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 				if ((ret = n_frozen < 0 ? (int)n_frozen : capture_quads(r, n_frozen, &frozen_quads, &frozen_captured)) < 0)
 					break;
 			}
-			frame_errors(r, c, v, i, frozen, NULL, NULL);
+			frame_errors(r, c, v, i, frozen, NULL, NULL, NULL);
 			memcpy(frozen_depth, r->gpu.target.depth_readback.map, sizeof(float) * W * H);
 			memcpy(frozen_rgba, r->gpu.target.color_readback.map, (size_t)4 * W * H);
 		}
@@ -307,7 +351,9 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 		if (!analyse)
 			continue;
 		res->face_culled += st.face_culled;
-		frame_errors(r, c, v, i, err, &a, res);
+		if (!c->reference && (ret = mark_curtains(r, c, tv, v, i, &scratch)) < 0)
+			break;
+		frame_errors(r, c, v, i, err, c->reference ? NULL : scratch.curtain, &a, res);
 		if (a.nover && (ret = recheck(r, c, tv, v, i, st.triangles, &a, res)) < 0)
 			break;
 		uint8_t *ref_rgba = r->ref_rgba + (size_t)i * 4 * W * H;
@@ -429,6 +475,9 @@ int bench_lod_measure(struct run *r, const struct config *c, bool analyse, const
 	free(frozen);
 	free(frozen_depth);
 	free(frozen_rgba);
+	free(scratch.depth);
+	free(scratch.rgba);
+	free(scratch.curtain);
 	free(pair);
 	return ret;
 }

@@ -556,6 +556,71 @@ static void test_coverage_within_tau(void **state)
 	}
 }
 
+/* `relief bench lod` leaves a frame's terrain-edge curtain out of its error statistics:
+ * the pixels whose depth changes when the frame is drawn again without curtains
+ * (tools/bench_lod_measure.c, mark_curtains()). That holds where the two draws differ in
+ * the curtains alone. From outside three of Puget Sound's edges, low and looking at the
+ * curtain's outer face, and from above the terrain along an edge (no curtain shows, and
+ * nothing changes), relief at tau 1 and 4:
+ * every pixel that changes shows a point on an edge's vertical plane (a curtain hangs from
+ * the drawn edge, which may lie above the finest surface by the level of detail's error),
+ * and every pixel showing such a point 5 m or more under the finest surface changes. */
+static void test_curtain_pixels(void **state)
+{
+	const struct pose poses[] = {
+		{ { 80000, -6000, 200 }, { 80000, 20000, -1500 } },   /* south of the south edge */
+		{ { 170000, 30000, 400 }, { 150000, 60000, -1000 } }, /* east of the east edge */
+		{ { -3000, 150000, 100 }, { 10000, 120000, -800 } },  /* west of the west edge */
+		{ { 30000, 150000, 6000 }, { 90000, 163840, 0 } },   /* over the terrain, along the north edge */
+	};
+	const double taus[] = { 1.0, 4.0 };
+	struct bound_scene b;
+	bound_open(&b, vk, DEM_PUGET);
+	const struct relief_header *h = &b.s.f->hdr;
+	const double x1 = h->spacing_x * (b.fw - 1), y0 = h->origin_y - h->spacing_y * (b.fh - 1);
+	const struct relief_draw_options bare = { .no_skirts = true };
+	for (size_t c = 0; c < sizeof(poses) / sizeof(poses[0]); c++)
+		for (size_t t = 0; t < 2; t++) {
+			struct relief_view v = pose_view(&poses[c]);
+			v.tau = taus[t];
+			struct relief_terrain_stats st;
+			render(&b.s, &v, b.lod, &st);
+			render_with(&b.s, &v, &bare, b.ref, &st);
+			uint32_t changed = 0, curtain = 0, stray = 0, missed = 0;
+			for (int y = 0; y < BH; y++)
+				for (int x = 0; x < BW; x++) {
+					const float d = b.lod[y * BW + x];
+					const bool differs = d != b.ref[y * BW + x];
+					changed += differs;
+					if (!(d > 0.0f)) {
+						stray += differs; /* background in the frame with curtains */
+						continue;
+					}
+					struct relief_vec3 p = relief_view_unproject(&v, x, y, d);
+					/* on an edge's plane (within 1e-5 of the distance: the depth's rounding; the
+					 * surface beside the edge lies farther off) */
+					const double tol = 1e-5 * hypot(hypot(p.x - v.eye.x, p.y - v.eye.y), p.z - v.eye.z);
+					const bool plane = fabs(p.x - h->origin_x) < tol || fabs(p.x - h->origin_x - x1) < tol ||
+					                   fabs(p.y - h->origin_y) < tol || fabs(p.y - y0) < tol;
+					const double dz = relief_surface_vertical_error(b.s.f, b.drawn, b.valid, b.fw, b.fh, 1, p, NULL);
+					if (differs && !plane)
+						stray++;
+					if (plane && dz < -5.0) {
+						curtain++;
+						missed += !differs;
+					}
+				}
+			print_message("pose %zu, tau %g: %u pixels change without curtains, %u on a curtain 5 m or more under the "
+			              "surface, %u of those unchanged, %u changed elsewhere\n",
+			              c, v.tau, changed, curtain, missed, stray);
+			assert_int_equal(stray, 0);
+			assert_int_equal(missed, 0);
+			if (c < 3)
+				assert_true(curtain > (uint32_t)BW * BH / 50); /* the outer face fills part of the frame */
+		}
+	bound_close(&b);
+}
+
 /* Blocks without a valid sample are not tessellated (block_has_data() in lod_factors.comp):
  * the picture, colour and depth, is bit for bit the one drawn with them, and fewer
  * triangles are drawn, on Luxembourg (no-data outside the country, and the padding of its
@@ -625,6 +690,7 @@ int main(void)
 		cmocka_unit_test(test_old_version_renders),
 		cmocka_unit_test(test_nodata_hidden),
 		cmocka_unit_test(test_coverage_within_tau),
+		cmocka_unit_test(test_curtain_pixels),
 		cmocka_unit_test(test_blocks_without_data_culled),
 	};
 	return cmocka_run_group_tests(tests, gpu_test_group_setup, gpu_test_group_teardown);
