@@ -396,6 +396,12 @@ fg=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | sed -n 's/.*"popping_event_pix
 m=$(sed -n 's/.*"popping_excluded_pixels":\([0-9]*\).*/\1/p' <<<"$LAST_OUT" | awk -v fg="${fg:--1}" '$1 <= fg + 0' | wc -l)
 [ "$m" -eq 4 ] || { echo "FAIL bench lod popping_excluded_pixels over the full grid's $fg: $m of 4 within"; fails=$((fails + 1)); }
 expect_text bench-lod-runs '"frames":4,"runs":2,'
+# Curtain pixels: counted for every method, never for the reference (it is not measured
+# against itself).
+m=$(grep -c '"curtain_pixels":[0-9]*,' <<<"$LAST_OUT")
+[ "$m" -eq 4 ] || { echo "FAIL bench lod curtain_pixels: $m of 4 records"; fails=$((fails + 1)); }
+m=$(grep '"method":"full-grid"' <<<"$LAST_OUT" | grep -c '"curtain_pixels":0,')
+[ "$m" -eq 1 ] || { echo "FAIL bench lod curtain_pixels of the full grid"; fails=$((fails + 1)); }
 # The awk checks of JSON records below read their numbers through num().
 awk_num='function num(text, key) { # the first number after "key": in text
 	if (!match(text, "\"" key "\":[0-9.]+")) return -1
