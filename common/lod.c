@@ -189,7 +189,7 @@ double relief_patch_coverage_error(const struct relief_file *f, uint32_t id)
 float relief_patch_select_error(const struct relief_file *f, uint32_t id, const struct relief_patch_record *r)
 {
 	if (r->flags & RELIEF_PATCH_EMPTY)
-		return r->draw_error; /* 0: nothing drawn, never split, never in a chain of forced splits */
+		return r->draw_error; /* 0, as the file has it: such a patch draws nothing to hold to tau */
 	float cover = relief_float_up(RELIEF_LOD_COARSE_SHARE * relief_patch_coverage_error(f, id));
 	return r->draw_error > cover ? r->draw_error : cover;
 }

@@ -514,6 +514,8 @@ static void test_coverage_within_tau(void **state)
 			bound_open_dem(&b, vk, &dem);
 		}
 		relief_dem_finish(&dem);
+		uint32_t *ids = malloc(sizeof(uint32_t) * b.s.f->hdr.index_records); /* drawn patches have entries */
+		assert_non_null(ids);
 		const struct named_pose *cases = scene == 0 ? lake : sound;
 		const size_t n_cases = scene == 0 ? sizeof(lake) / sizeof(lake[0]) : sizeof(sound) / sizeof(sound[0]);
 		for (size_t c = 0; c < n_cases; c++) {
@@ -526,7 +528,7 @@ static void test_coverage_within_tau(void **state)
 			for (size_t t = 0; t < sizeof(taus) / sizeof(taus[0]); t++) {
 				v.tau = taus[t];
 				render(&b.s, &v, b.lod, &st);
-				uint32_t ids[4096], n, over;
+				uint32_t n, over;
 				const uint32_t levels = drawn_levels(&b.s, ids, &n);
 				const double worst = over_coverage_px(b.ref, b.lod, BW, BH, CAP, &over);
 				struct comparison cmp = { 0 };
@@ -552,6 +554,7 @@ static void test_coverage_within_tau(void **state)
 					assert_true(b.lod[(BH / 2) * BW + BW / 2] <= 0.0f);
 			}
 		}
+		free(ids);
 		bound_close(&b);
 	}
 }
