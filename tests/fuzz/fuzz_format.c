@@ -1,12 +1,13 @@
 /* The .relief parser and everything a reader does after a successful open: records, block
- * errors, masks and full decoding, NaN-marked and drawn (small files only, to bound
- * memory). */
+ * errors, masks, the selection's error (with the gaps derived at open) and full decoding,
+ * NaN-marked and drawn (small files only, to bound memory). */
 #include <stdlib.h>
 #include <string.h>
 
 #include "decode.h"
 #include "format.h"
 #include "fuzz.h"
+#include "lod.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -20,6 +21,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	for (uint32_t id = 0; id < f->hdr.patch_count && id < 64; id++) {
 		struct relief_patch_record r;
 		relief_file_record(f, id, &r);
+		float e = relief_patch_select_error(f, id, &r);
+		if (!(e >= 0.0f)) /* finite or infinite, never negative or NaN */
+			abort();
 		relief_file_block_errors(f, id, eps);
 		relief_file_mask(f, id, mask);
 	}

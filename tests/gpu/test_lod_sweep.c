@@ -5,7 +5,8 @@
  * borders land (1025 and 2049 samples, 65-sample patches) and the cliffs; then the hard
  * terrains: Mont Blanc with no-data holes inside it (holes_dem()), Puget Sound moved to
  * projected coordinates in the millions of metres, Puget Sound with samples 4 times
- * closer north-south than east-west (since the forty-fourth December 2026 session), and a
+ * closer north-south than east-west (since the forty-fourth December 2026 session), Puget
+ * Sound with its water as no-data in 65-sample patches (since the forty-fifth), and a
  * 4097-sample coast rough at the shore, a 7-level tree (65-sample patches) where both
  * forced-split rules apply (five levels, the finer border: lod_force.comp). Eyes anywhere over the raster and a tenth
  * of it beyond, from 20 m above a height in the terrain's range (so also inside
@@ -315,6 +316,13 @@ static void test_sweep_hard_terrains(void **state)
 	test_dem_load(DEM_PUGET, &dem);
 	dem.spacing_y = dem.spacing_x / 4;
 	sweep_dem(&dem, 129, "Puget Sound at 160 x 40 m");
+	/* its water as no-data, in 65-sample patches (5 levels): a real coast, whose shore the
+	 * selection splits for where a coarse level's coverage would reach past tau
+	 * (relief_patch_select_error(); since the forty-fifth December 2026 session) */
+	test_dem_load(DEM_PUGET, &dem);
+	for (size_t i = 0; i < (size_t)dem.width * dem.height; i++)
+		dem.valid[i] = dem.heights[i] > 0.5f;
+	sweep_dem(&dem, 65, "Puget Sound's water as no-data");
 	dem = coast_dem(4097, 0);
 	assert_int_equal(sweep_dem(&dem, 65, "coast 4097"), 7);
 	gpu_test_assert_clean(vk);
