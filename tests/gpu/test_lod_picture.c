@@ -479,11 +479,13 @@ static void plain_coverage(const struct relief_view *v, const uint8_t *valid, in
  * Two scenes: a flat plain (every E0(P) 0, so that only coverage makes a patch split)
  * around a round no-data lake, 513 x 513 samples 30 m apart in 65-sample patches (4
  * levels: the root's samples 8 apart), from above and obliquely, against its coverage
- * worked out (plain_coverage()); and Puget Sound with its water as no-data (a real
- * coast), from above, against the full-resolution frame, within tau there too. Negative
+ * worked out (plain_coverage()), the GPU's selection equal to the CPU reference's; and
+ * Puget Sound with its water as no-data (a real coast), from above, against the
+ * full-resolution frame, within tau there too. Negative
  * control, run when this was written (the selection's error E0(P) alone): the plain's
  * root patch drawn alone from 3 km at tau 1, 4,330 pixels past the worked-out coverage,
- * up to 20.5 px from it. */
+ * up to 20.5 px from it; the CPU reference alone without the coverage error, its root
+ * against the GPU's 8 patches. */
 static void test_coverage_within_tau(void **state)
 {
 	enum { N = 513, CAP = 48 };
@@ -552,6 +554,9 @@ static void test_coverage_within_tau(void **state)
 				assert_int_equal(cmp.holes, 0);
 				if (cases[c].hole_at_centre)
 					assert_true(b.lod[(BH / 2) * BW + BW / 2] <= 0.0f);
+				/* the selection that splits for coverage, on the GPU and in the CPU reference */
+				if (scene == 0)
+					assert_true(fresh_view_matches_cpu(&b.s, &v, 200 + t, NULL) > 0);
 			}
 		}
 		free(ids);
