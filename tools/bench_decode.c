@@ -17,7 +17,10 @@
  *             (relief_patch_cache_options.pass_timing; lavapipe flushes at each, so these
  *             runs are slower and kept apart): its busy time (gpu_profiled_busy_ms) split
  *             into the decode pass (with the block error copies), the normals pass and the
- *             transition strip bounds' pass. */
+ *             transition strip bounds' pass;
+ *   alone     the GPU path with every patch's symbols ready first (device_alone_run()):
+ *             the device's own work with the worker idle (on a CPU device the two
+ *             otherwise share the cores), and the reference over it. */
 #include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -56,6 +59,59 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 	if (ret >= 0)
 		ret = relief_patch_cache_flush(c, 1);
 	*wall = bench_now() - t;
+	relief_patch_cache_stats(c, st);
+	relief_patch_cache_destroy(c);
+	return ret < 0 ? ret : 0;
+}
+
+/* The device alone: every patch's symbols ready before the first batch, so the worker is
+ * idle while the device works. On a CPU device (lavapipe) the two otherwise share the
+ * cores, and this is what the device's own work costs without the worker beside it; on a
+ * GPU it is the reconstruction's latency with nothing to wait for. Patches go in chunks of
+ * at most ALONE_CHUNK staging slots, in id order (coarse first: a chunk's parents are
+ * resident), each chunk's entropy stage finished before its batches are timed; *wall sums
+ * the chunks' flushes, and st gets the last cache's stats (gpu_ns: the device's busy time
+ * over every chunk). */
+#define ALONE_CHUNK 256u
+
+static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_t patches, uint32_t workers,
+                            double *wall, struct relief_patch_cache_stats *st)
+{
+	const uint32_t slots = patches < ALONE_CHUNK ? patches : ALONE_CHUNK;
+	struct relief_patch_cache_options o = { .budget_bytes = 1ull << 30, .staging_slots = slots ? slots : 1,
+		                                .workers = workers };
+	struct relief_patch_cache *c;
+	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
+	if (ret < 0)
+		return ret;
+	*wall = 0;
+	uint32_t e = 0;
+	while (ret >= 0 && e < f->hdr.index_records) {
+		uint32_t asked = 0;
+		for (; e < f->hdr.index_records && asked < slots && ret >= 0; e++) {
+			const uint32_t id = relief_index_patch(&f->hdr, e);
+			int r = relief_patch_cache_request(c, id, (float)id);
+			if (r == 0)
+				asked++;
+			else if (r != -ENOENT && r != -EIO)
+				ret = r;
+		}
+		/* Wait for the worker to finish the chunk (10 s at most: a stuck worker is an error). */
+		struct relief_patch_cache_stats s = { 0 };
+		for (int ms = 0; ret >= 0 && s.waiting < asked; ms++) {
+			relief_patch_cache_stats(c, &s);
+			if (s.waiting >= asked)
+				break;
+			if (ms == 10000)
+				ret = -ETIMEDOUT;
+			else
+				nanosleep(&(struct timespec){ 0, 1000000 }, NULL);
+		}
+		double t = bench_now();
+		if (ret >= 0)
+			ret = relief_patch_cache_flush(c, 1);
+		*wall += bench_now() - t;
+	}
 	relief_patch_cache_stats(c, st);
 	relief_patch_cache_destroy(c);
 	return ret < 0 ? ret : 0;
@@ -196,7 +252,8 @@ int bench_decode(int argc, char **argv)
 			       "from timestamps, and GPU memory per resident patch. Median of N runs (default 3);\n"
 			       "--workers: the cache's entropy-decoding threads (default 1). Also the descent\n"
 			       "latency: updates (one per frame) until a root-to-finest chain is resident, and\n"
-			       "the ratio at equal outputs: the reference plus the normal maps on the CPU.\n");
+			       "the ratio at equal outputs: the reference plus the normal maps on the CPU, and\n"
+			       "the device alone: the GPU path with every patch's symbols ready first.\n");
 			return 0;
 		case ':':
 		default:
@@ -218,7 +275,7 @@ int bench_decode(int argc, char **argv)
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
 	double cpu[16], ent[16], nrm[16], str[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], gpu_str[16], worker[16];
-	double prof_busy[16], prof_wall;
+	double prof_busy[16], prof_wall, alone[16], alone_busy[16];
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_vk *vk = NULL;
@@ -258,6 +315,10 @@ int bench_decode(int argc, char **argv)
 		gpu_dec[i] = ps.gpu_decode_ns * 1e-9;
 		gpu_nrm[i] = ps.gpu_normals_ns * 1e-9;
 		gpu_str[i] = ps.gpu_strips_ns * 1e-9;
+		struct relief_patch_cache_stats as;
+		if ((ret = device_alone_run(vk, f, patches, workers, &alone[i], &as)) < 0)
+			goto fail;
+		alone_busy[i] = as.gpu_ns * 1e-9;
 	}
 	uint32_t descent = 0;
 	if ((ret = descent_run(vk, f, &descent)) < 0)
@@ -267,6 +328,7 @@ int bench_decode(int argc, char **argv)
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
 	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs), gs = bench_median(gpu_str, runs);
 	double pb = bench_median(prof_busy, runs);
+	double ga = bench_median(alone, runs), gab = bench_median(alone_busy, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 	if (json) {
 		printf("{\"file\":");
@@ -276,11 +338,12 @@ int bench_decode(int argc, char **argv)
 		       "\"gpu_wall_ms\":%.4f,\"gpu_busy_ms\":%.2f,\"gpu_profiled_busy_ms\":%.2f,\"gpu_decode_pass_ms\":%.2f,"
 		       "\"gpu_normals_pass_ms\":%.2f,\"gpu_strips_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
 		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u,"
-		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"cpu_strips_ms\":%.4f,\"ratio_same_outputs\":%.3f",
+		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"cpu_strips_ms\":%.4f,\"ratio_same_outputs\":%.3f,"
+		       "\"gpu_alone_wall_ms\":%.4f,\"gpu_alone_busy_ms\":%.2f,\"ratio_cpu_over_gpu_alone\":%.3f",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, pb * 1e3, gd * 1e3, gn * 1e3,
 		       gs * 1e3, w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
-		       cs * 1e3, (c + cn + cs) / g);
+		       cs * 1e3, (c + cn + cs) / g, ga * 1e3, gab * 1e3, c / ga);
 		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
@@ -296,6 +359,9 @@ int bench_decode(int argc, char **argv)
 		printf("    with pass timestamps       %8.2f ms busy: decode pass %.2f ms, normals pass %.2f ms, strips "
 		       "pass %.2f ms\n",
 		       pb * 1e3, gd * 1e3, gn * 1e3, gs * 1e3);
+		printf("  GPU alone                    %8.2f ms  %.2f ms busy: every patch's symbols ready first, the worker "
+		       "idle; the reference over it %.2f\n",
+		       ga * 1e3, gab * 1e3, c / ga);
 		printf("  CPU normals (1 thread)       %8.2f ms  (the normals pass's twin)\n", cn * 1e3);
 		printf("  CPU strip bounds (1 thread)  %8.2f ms  (the strips pass's twin; with the reference and the normals: "
 		       "%.2f ms, ratio GPU/CPU at equal outputs %.2f)\n", cs * 1e3, (c + cn + cs) * 1e3, (c + cn + cs) / g);

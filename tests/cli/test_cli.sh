@@ -235,6 +235,12 @@ if ! awk -v b="$(field gpu_profiled_busy_ms)" -v d="$(field gpu_decode_pass_ms)"
 	-v s="$(field gpu_strips_pass_ms)" 'BEGIN { e = d + n + s - b; exit !(d > 0 && n > 0 && s > 0 && (e < 0 ? -e : e) <= 0.02) }'; then
 	echo "FAIL bench-decode-passes: $LAST_OUT"; fails=$((fails + 1))
 fi
+# the device alone (every patch's symbols ready first): its batches run inside the timed
+# flushes, so their busy time is at most the wall time; the ratio is the reference over it
+if ! awk -v a="$(field gpu_alone_wall_ms)" -v b="$(field gpu_alone_busy_ms)" -v c="$(field cpu_ref_ms)" \
+	-v r="$(field ratio_cpu_over_gpu_alone)" 'BEGIN { d = r - c / a; exit !(a > 0 && b > 0 && b <= a + 0.01 && (d < 0 ? -d : d) <= 0.01 * c / a + 0.002) }'; then
+	echo "FAIL bench-decode-alone: $LAST_OUT"; fails=$((fails + 1))
+fi
 # A level whose index window is smaller than its grid of patches (the crop: 3 x 2 of 4 x 4
 # at the finest level): the CPU side takes each patch's block in entry order (it once
 # read past the decoded blocks, which the sanitiser build reported).
