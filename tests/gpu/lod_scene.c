@@ -372,6 +372,17 @@ void bound_buffers(struct bound_scene *b)
 	b->lod = malloc(sizeof(float) * px);
 }
 
+bool bound_sample_at(const struct bound_scene *b, double x, double y, long *c, long *r)
+{
+	const struct relief_header *h = &b->s.f->hdr;
+	const long cc = lround((x - h->origin_x) / h->spacing_x), rr = lround((h->origin_y - y) / h->spacing_y);
+	if (cc < 0 || rr < 0 || cc >= (long)b->fw || rr >= (long)b->fh || !b->valid[(size_t)rr * b->fw + (size_t)cc])
+		return false;
+	*c = cc;
+	*r = rr;
+	return true;
+}
+
 struct relief_dem grid_dem(int N)
 {
 	struct relief_dem dem = { .width = (uint32_t)N, .height = (uint32_t)N, .spacing_x = 30, .spacing_y = 30,

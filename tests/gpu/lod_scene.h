@@ -210,6 +210,9 @@ void bound_open_coast(struct bound_scene *b, struct relief_vk *vk, int N);
 void bound_buffers(struct bound_scene *b);
 /* Also fails the test if the validation layer spoke. */
 void bound_close(struct bound_scene *b);
+/* The finest sample nearest world (x, y): its column and row in b->drawn and b->valid.
+ * False where it lies outside the raster or is no-data (then *c and *r are left). */
+bool bound_sample_at(const struct bound_scene *b, double x, double y, long *c, long *r);
 
 /* The view of a pose, with a tau fine enough for a full-resolution reference. */
 struct relief_view pose_view(const struct pose *p);

@@ -147,11 +147,9 @@ static void test_mesh_within_tau_cliffs(void **state)
  * so the poses follow the packed data. */
 static void driving_poses(const struct bound_scene *b, const double xy[][4], size_t n, struct pose *out)
 {
-	const struct relief_header *h = &b->s.f->hdr;
 	for (size_t i = 0; i < n; i++) {
-		long c = lround((xy[i][0] - h->origin_x) / h->spacing_x), r = lround((h->origin_y - xy[i][1]) / h->spacing_y);
-		assert_true(c >= 0 && r >= 0 && c < (long)b->fw && r < (long)b->fh);
-		assert_true(b->valid[(size_t)r * b->fw + (size_t)c]);
+		long c, r;
+		assert_true(bound_sample_at(b, xy[i][0], xy[i][1], &c, &r)); /* over valid data */
 		double ground = b->drawn[(size_t)r * b->fw + (size_t)c];
 		out[i] = (struct pose){ { xy[i][0], xy[i][1], ground + 2.0 }, { xy[i][2], xy[i][3], ground - 98.0 } };
 	}

@@ -128,9 +128,8 @@ static struct relief_mesh_vertex *capture_in_parts(struct scene *s, const struct
  * where (x, y) is over valid data (the nearest finest sample's); else leaves *z. */
 static bool low_eye(const struct bound_scene *b, double x, double y, double above, double *z)
 {
-	const struct relief_header *h = &b->s.f->hdr;
-	const long c = lround((x - h->origin_x) / h->spacing_x), r = lround((h->origin_y - y) / h->spacing_y);
-	if (c < 0 || r < 0 || c >= (long)b->fw || r >= (long)b->fh || !b->valid[(size_t)r * b->fw + (size_t)c])
+	long c, r;
+	if (!bound_sample_at(b, x, y, &c, &r))
 		return false;
 	/* the highest of the 3 x 3 samples around the nearest: every cell holding (x, y) has
 	 * its corners among them, and the surface there is below them */
