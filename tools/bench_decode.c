@@ -20,7 +20,8 @@
  *             transition strip bounds' pass;
  *   alone     the GPU path with every patch's symbols ready first (device_alone_run()):
  *             the device's own work with the worker idle (on a CPU device the two
- *             otherwise share the cores), and the reference over it. */
+ *             otherwise share the cores), and the reference over it; its passes split
+ *             by as many runs again with the pass timestamps. */
 #include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -75,11 +76,11 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 #define ALONE_CHUNK 256u
 
 static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_t patches, uint32_t workers,
-                            double *wall, struct relief_patch_cache_stats *st)
+                            bool pass_timing, double *wall, struct relief_patch_cache_stats *st)
 {
 	const uint32_t slots = patches < ALONE_CHUNK ? patches : ALONE_CHUNK;
 	struct relief_patch_cache_options o = { .budget_bytes = 1ull << 30, .staging_slots = slots ? slots : 1,
-		                                .workers = workers };
+		                                .workers = workers, .pass_timing = pass_timing };
 	struct relief_patch_cache *c;
 	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
 	if (ret < 0)
@@ -275,7 +276,7 @@ int bench_decode(int argc, char **argv)
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
 	double cpu[16], ent[16], nrm[16], str[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], gpu_str[16], worker[16];
-	double prof_busy[16], prof_wall, alone[16], alone_busy[16];
+	double prof_busy[16], prof_wall, alone[16], alone_busy[16], alone_dec[16], alone_nrm[16], alone_str[16];
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_vk *vk = NULL;
@@ -316,9 +317,13 @@ int bench_decode(int argc, char **argv)
 		gpu_nrm[i] = ps.gpu_normals_ns * 1e-9;
 		gpu_str[i] = ps.gpu_strips_ns * 1e-9;
 		struct relief_patch_cache_stats as;
-		if ((ret = device_alone_run(vk, f, patches, workers, &alone[i], &as)) < 0)
+		if ((ret = device_alone_run(vk, f, patches, workers, false, &alone[i], &as)) < 0 ||
+		    (ret = device_alone_run(vk, f, patches, workers, true, &prof_wall, &ps)) < 0)
 			goto fail;
 		alone_busy[i] = as.gpu_ns * 1e-9;
+		alone_dec[i] = ps.gpu_decode_ns * 1e-9;
+		alone_nrm[i] = ps.gpu_normals_ns * 1e-9;
+		alone_str[i] = ps.gpu_strips_ns * 1e-9;
 	}
 	uint32_t descent = 0;
 	if ((ret = descent_run(vk, f, &descent)) < 0)
@@ -329,6 +334,7 @@ int bench_decode(int argc, char **argv)
 	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs), gs = bench_median(gpu_str, runs);
 	double pb = bench_median(prof_busy, runs);
 	double ga = bench_median(alone, runs), gab = bench_median(alone_busy, runs);
+	double gad = bench_median(alone_dec, runs), gan = bench_median(alone_nrm, runs), gas = bench_median(alone_str, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 	if (json) {
 		printf("{\"file\":");
@@ -339,11 +345,12 @@ int bench_decode(int argc, char **argv)
 		       "\"gpu_normals_pass_ms\":%.2f,\"gpu_strips_pass_ms\":%.2f,\"worker_entropy_ms\":%.2f,\"batches\":%llu,"
 		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u,"
 		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"cpu_strips_ms\":%.4f,\"ratio_same_outputs\":%.3f,"
-		       "\"gpu_alone_wall_ms\":%.4f,\"gpu_alone_busy_ms\":%.2f,\"ratio_cpu_over_gpu_alone\":%.3f",
+		       "\"gpu_alone_wall_ms\":%.4f,\"gpu_alone_busy_ms\":%.2f,\"ratio_cpu_over_gpu_alone\":%.3f,"
+		       "\"gpu_alone_decode_pass_ms\":%.2f,\"gpu_alone_normals_pass_ms\":%.2f,\"gpu_alone_strips_pass_ms\":%.2f",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, pb * 1e3, gd * 1e3, gn * 1e3,
 		       gs * 1e3, w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
-		       cs * 1e3, (c + cn + cs) / g, ga * 1e3, gab * 1e3, c / ga);
+		       cs * 1e3, (c + cn + cs) / g, ga * 1e3, gab * 1e3, c / ga, gad * 1e3, gan * 1e3, gas * 1e3);
 		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
@@ -362,6 +369,8 @@ int bench_decode(int argc, char **argv)
 		printf("  GPU alone                    %8.2f ms  %.2f ms busy: every patch's symbols ready first, the worker "
 		       "idle; the reference over it %.2f\n",
 		       ga * 1e3, gab * 1e3, c / ga);
+		printf("    with pass timestamps        decode pass %.2f ms, normals pass %.2f ms, strips pass %.2f ms\n",
+		       gad * 1e3, gan * 1e3, gas * 1e3);
 		printf("  CPU normals (1 thread)       %8.2f ms  (the normals pass's twin)\n", cn * 1e3);
 		printf("  CPU strip bounds (1 thread)  %8.2f ms  (the strips pass's twin; with the reference and the normals: "
 		       "%.2f ms, ratio GPU/CPU at equal outputs %.2f)\n", cs * 1e3, (c + cn + cs) * 1e3, (c + cn + cs) / g);

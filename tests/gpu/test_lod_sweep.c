@@ -43,7 +43,8 @@
  * the worst 0.998 tau (the coasts). The forty-fifth, with the selection's coverage rule:
  * 300 a scene (seed 46), 2,487 frames; with the eleventh scene (seed 47), 2,703 frames;
  * 1,000 a scene (seed 48), 9,222 frames (512 million triangles); none with a seam or over
- * tau, the worst 0.9988 tau. The 1025 coast is rough at the shore,
+ * tau, the worst 0.9988 tau. The forty-sixth, 300 a scene (seed 49): 2,758 frames (208
+ * million triangles), none with a seam or over tau, the worst 0.9983 tau (the 2049 coast). The 1025 coast is rough at the shore,
  * where the sea splits beside the land; the 2049 one smooth for 32 samples, where the
  * sea stays up to 4 levels coarser (coast_dem()).
  * Negative controls, run when the test was written (30 views a scene): the evaluation
