@@ -94,8 +94,8 @@ static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_
 			int r = relief_patch_cache_request(c, id, (float)id);
 			if (r == 0)
 				asked++;
-			else if (r != -ENOENT && r != -EIO)
-				ret = r;
+			else if (r != -ENOENT && r != -EIO && r != -EAGAIN)
+				ret = r; /* EAGAIN: an earlier chunk dropped its parent (a bad ancestor's child) */
 		}
 		/* Wait for the worker to finish the chunk (10 s at most: a stuck worker is an error). */
 		struct relief_patch_cache_stats s = { 0 };
