@@ -71,9 +71,9 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
  * GPU it is the reconstruction's latency with nothing to wait for. Patches go in chunks of
  * at most ALONE_CHUNK staging slots, in id order (coarse first: a chunk's parents are
  * resident), each chunk's entropy stage finished before its batches are timed; *wall sums
- * the chunks' flushes, and st gets the last cache's stats (gpu_ns: the device's busy time
- * over every chunk). */
-#define ALONE_CHUNK 256u
+ * the chunks' flushes, and st gets the cache's stats (gpu_ns: the device's busy time over
+ * every chunk). The chunks bound the staging memory the run holds at once. */
+#define ALONE_CHUNK 64u
 
 static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_t patches, uint32_t workers,
                             bool pass_timing, double *wall, struct relief_patch_cache_stats *st)
@@ -320,6 +320,12 @@ int bench_decode(int argc, char **argv)
 		if ((ret = device_alone_run(vk, f, patches, workers, false, &alone[i], &as)) < 0 ||
 		    (ret = device_alone_run(vk, f, patches, workers, true, &prof_wall, &ps)) < 0)
 			goto fail;
+		if (as.decoded != st.decoded || ps.decoded != st.decoded) { /* the same patches, or no comparison */
+			fprintf(stderr, "relief bench decode: %s: the device-alone runs decoded %llu and %llu patches, the GPU path %llu\n",
+			        path, (unsigned long long)as.decoded, (unsigned long long)ps.decoded,
+			        (unsigned long long)st.decoded);
+			goto out;
+		}
 		alone_busy[i] = as.gpu_ns * 1e-9;
 		alone_dec[i] = ps.gpu_decode_ns * 1e-9;
 		alone_nrm[i] = ps.gpu_normals_ns * 1e-9;
