@@ -95,7 +95,8 @@ static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_
 			if (r == 0)
 				asked++;
 			else if (r != -ENOENT && r != -EIO && r != -EAGAIN)
-				ret = r; /* EAGAIN: an earlier chunk dropped its parent (a bad ancestor's child) */
+				ret = r; /* EAGAIN: its parent is no longer on its way (evicted, or dropped after
+				          * a bad ancestor), and was asked for instead */
 		}
 		/* Wait for the worker to finish the chunk (10 s at most: a stuck worker is an error). */
 		struct relief_patch_cache_stats s = { 0 };
