@@ -65,6 +65,21 @@ static int gpu_run(struct relief_vk *vk, struct relief_file *f, uint32_t workers
 	return ret < 0 ? ret : 0;
 }
 
+/* Waits until at least n patches' symbols are ready in cache c (entropy-decoded, not yet in
+ * a batch), polling every millisecond: 0, or -ETIMEDOUT after 10 s (a stuck worker). */
+static int wait_for_symbols(struct relief_patch_cache *c, uint32_t n)
+{
+	for (int ms = 0;; ms++) {
+		struct relief_patch_cache_stats s;
+		relief_patch_cache_stats(c, &s);
+		if (s.waiting >= n)
+			return 0;
+		if (ms == 10000)
+			return -ETIMEDOUT;
+		nanosleep(&(struct timespec){ 0, 1000000 }, NULL);
+	}
+}
+
 /* The device alone: every patch's symbols ready before the first batch, so the worker is
  * idle while the device works. On a CPU device (lavapipe) the two otherwise share the
  * cores, and this is what the device's own work costs without the worker beside it; on a
@@ -98,17 +113,8 @@ static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_
 				ret = r; /* EAGAIN: its parent is no longer on its way (evicted, or dropped after
 				          * a bad ancestor), and was asked for instead */
 		}
-		/* Wait for the worker to finish the chunk (10 s at most: a stuck worker is an error). */
-		struct relief_patch_cache_stats s = { 0 };
-		for (int ms = 0; ret >= 0 && s.waiting < asked; ms++) {
-			relief_patch_cache_stats(c, &s);
-			if (s.waiting >= asked)
-				break;
-			if (ms == 10000)
-				ret = -ETIMEDOUT;
-			else
-				nanosleep(&(struct timespec){ 0, 1000000 }, NULL);
-		}
+		if (ret >= 0)
+			ret = wait_for_symbols(c, asked); /* the chunk's entropy stage, untimed */
 		double t = bench_now();
 		if (ret >= 0)
 			ret = relief_patch_cache_flush(c, 1);
@@ -201,12 +207,8 @@ static int descent_run(struct relief_vk *vk, struct relief_file *f, uint32_t *up
 	relief_patch_coords(&f->layout, target, &l, &px, &py);
 	for (uint32_t k = 0; k < levels && ret >= 0; k++)
 		ret = relief_patch_cache_request(c, relief_patch_id(k, px >> (l - k), py >> (l - k)), (float)k);
-	struct relief_patch_cache_stats st = { 0 };
-	for (int ms = 0; ret >= 0 && ms < 10000 && st.waiting < levels; ms++) {
-		relief_patch_cache_stats(c, &st);
-		if (st.waiting < levels)
-			nanosleep(&(struct timespec){ 0, 1000000 }, NULL);
-	}
+	if (ret >= 0)
+		(void)wait_for_symbols(c, levels); /* on a timeout the updates below time out too */
 	*updates = 0;
 	while (ret >= 0 && relief_patch_cache_state(c, target) != RELIEF_PATCH_RESIDENT) {
 		if (++*updates > 4 * levels) {
