@@ -21,7 +21,10 @@
  *   alone     the GPU path with every patch's symbols ready first (device_alone_run()):
  *             the device's own work with the worker idle (on a CPU device the two
  *             otherwise share the cores), and the reference over it; its passes split
- *             by as many runs again with the pass timestamps. */
+ *             by as many runs again with the pass timestamps; and the process's CPU time
+ *             over it (every thread), which with the entropy stage's bounds the ratio
+ *             on a CPU device: the path cannot take less wall time than the two spread
+ *             evenly over the cores (ratio_bound_cores). */
 #include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -87,11 +90,14 @@ static int wait_for_symbols(struct relief_patch_cache *c, uint32_t n)
  * at most ALONE_CHUNK staging slots, in id order (coarse first: a chunk's parents are
  * resident), each chunk's entropy stage finished before its batches are timed; *wall sums
  * the chunks' flushes, and st gets the cache's stats (gpu_ns: the device's busy time over
- * every chunk). The chunks bound the staging memory the run holds at once. */
+ * every chunk), *cpu the process's CPU time over the timed flushes (every thread: on a CPU
+ * device the driver's threads doing the device's work, with the cache's own recording and
+ * waiting; the workers are idle then). The chunks bound the staging memory the run holds
+ * at once. */
 #define ALONE_CHUNK 64u
 
 static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_t patches, uint32_t workers,
-                            bool pass_timing, double *wall, struct relief_patch_cache_stats *st)
+                            bool pass_timing, double *wall, double *cpu, struct relief_patch_cache_stats *st)
 {
 	const uint32_t slots = patches < ALONE_CHUNK ? patches : ALONE_CHUNK;
 	struct relief_patch_cache_options o = { .budget_bytes = 1ull << 30, .staging_slots = slots ? slots : 1,
@@ -100,7 +106,7 @@ static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_
 	int ret = relief_patch_cache_create(vk, f, &o, &cli_log, &c);
 	if (ret < 0)
 		return ret;
-	*wall = 0;
+	*wall = *cpu = 0;
 	uint32_t e = 0;
 	while (ret >= 0 && e < f->hdr.index_records) {
 		uint32_t asked = 0;
@@ -115,10 +121,11 @@ static int device_alone_run(struct relief_vk *vk, struct relief_file *f, uint32_
 		}
 		if (ret >= 0)
 			ret = wait_for_symbols(c, asked); /* the chunk's entropy stage, untimed */
-		double t = bench_now();
+		double t = bench_now(), u = bench_cpu_time();
 		if (ret >= 0)
 			ret = relief_patch_cache_flush(c, 1);
 		*wall += bench_now() - t;
+		*cpu += bench_cpu_time() - u;
 	}
 	relief_patch_cache_stats(c, st);
 	relief_patch_cache_destroy(c);
@@ -257,7 +264,9 @@ int bench_decode(int argc, char **argv)
 			       "--workers: the cache's entropy-decoding threads (default 1). Also the descent\n"
 			       "latency: updates (one per frame) until a root-to-finest chain is resident, and\n"
 			       "the ratio at equal outputs: the reference plus the normal maps on the CPU, and\n"
-			       "the device alone: the GPU path with every patch's symbols ready first.\n");
+			       "the device alone: the GPU path with every patch's symbols ready first, with the\n"
+			       "process's CPU time over it and the ratio that this time and the entropy stage's\n"
+			       "allow on this machine's cores (on a CPU device, where the device's work is CPU time).\n");
 			return 0;
 		case ':':
 		default:
@@ -279,7 +288,8 @@ int bench_decode(int argc, char **argv)
 	uint32_t patches = bench_decoded_patches(f);
 	const double samples = (double)patches * P * P;
 	double cpu[16], ent[16], nrm[16], str[16], gpu[16], gpu_busy[16], gpu_dec[16], gpu_nrm[16], gpu_str[16], worker[16];
-	double prof_busy[16], prof_wall, alone[16], alone_busy[16], alone_dec[16], alone_nrm[16], alone_str[16];
+	double prof_busy[16], prof_wall, prof_cpu, alone[16], alone_busy[16], alone_cpu[16], alone_dec[16],
+		alone_nrm[16], alone_str[16];
 	struct relief_patch_cache_stats st = { 0 };
 	struct relief_vk_options vo = { .device = device, .log = &cli_log };
 	struct relief_vk *vk = NULL;
@@ -320,8 +330,8 @@ int bench_decode(int argc, char **argv)
 		gpu_nrm[i] = ps.gpu_normals_ns * 1e-9;
 		gpu_str[i] = ps.gpu_strips_ns * 1e-9;
 		struct relief_patch_cache_stats as;
-		if ((ret = device_alone_run(vk, f, patches, workers, false, &alone[i], &as)) < 0 ||
-		    (ret = device_alone_run(vk, f, patches, workers, true, &prof_wall, &ps)) < 0)
+		if ((ret = device_alone_run(vk, f, patches, workers, false, &alone[i], &alone_cpu[i], &as)) < 0 ||
+		    (ret = device_alone_run(vk, f, patches, workers, true, &prof_wall, &prof_cpu, &ps)) < 0)
 			goto fail;
 		if (as.decoded != st.decoded || ps.decoded != st.decoded) { /* the same patches, or no comparison */
 			fprintf(stderr, "relief bench decode: %s: the device-alone runs decoded %llu and %llu patches, the GPU path %llu\n",
@@ -342,7 +352,13 @@ int bench_decode(int argc, char **argv)
 	double gb = bench_median(gpu_busy, runs), w = bench_median(worker, runs);
 	double gd = bench_median(gpu_dec, runs), gn = bench_median(gpu_nrm, runs), gs = bench_median(gpu_str, runs);
 	double pb = bench_median(prof_busy, runs);
-	double ga = bench_median(alone, runs), gab = bench_median(alone_busy, runs);
+	double ga = bench_median(alone, runs), gab = bench_median(alone_busy, runs), gac = bench_median(alone_cpu, runs);
+	/* No scheduling of the path's work on these cores beats its CPU time spread evenly
+	 * over them: the entropy stage (e, one thread) and everything else the device-alone
+	 * run cost the process (gac). Upper bound of the ratio on a CPU device, given its cost
+	 * of the shaders; on a GPU gac is the host's share only and the bound means little. */
+	const uint32_t cores = bench_cores();
+	const double bound = c * cores / (e + gac);
 	double gad = bench_median(alone_dec, runs), gan = bench_median(alone_nrm, runs), gas = bench_median(alone_str, runs);
 	const char *base = strrchr(path, '/') ? strrchr(path, '/') + 1 : path;
 	if (json) {
@@ -355,11 +371,14 @@ int bench_decode(int argc, char **argv)
 		       "\"descent_updates\":%u,\"levels\":%u,\"workers\":%u,\"runs\":%u,"
 		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"cpu_strips_ms\":%.4f,\"ratio_same_outputs\":%.3f,"
 		       "\"gpu_alone_wall_ms\":%.4f,\"gpu_alone_busy_ms\":%.2f,\"ratio_cpu_over_gpu_alone\":%.3f,"
-		       "\"gpu_alone_decode_pass_ms\":%.2f,\"gpu_alone_normals_pass_ms\":%.2f,\"gpu_alone_strips_pass_ms\":%.2f",
+		       "\"gpu_alone_decode_pass_ms\":%.2f,\"gpu_alone_normals_pass_ms\":%.2f,\"gpu_alone_strips_pass_ms\":%.2f,"
+		       "\"entropy_ms\":%.4f,\"gpu_alone_cpu_ms\":%.4f,\"cores\":%u,\"ratio_bound_cores\":%.3f,"
+		       "\"device_type\":\"%s\"",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, pb * 1e3, gd * 1e3, gn * 1e3,
 		       gs * 1e3, w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
-		       cs * 1e3, (c + cn + cs) / g, ga * 1e3, gab * 1e3, c / ga, gad * 1e3, gan * 1e3, gas * 1e3);
+		       cs * 1e3, (c + cn + cs) / g, ga * 1e3, gab * 1e3, c / ga, gad * 1e3, gan * 1e3, gas * 1e3, e * 1e3,
+		       gac * 1e3, cores, bound, relief_vk_device_type_name(vk->props.deviceType));
 		bench_json_machine(vk->props.deviceName);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
@@ -380,6 +399,9 @@ int bench_decode(int argc, char **argv)
 		       ga * 1e3, gab * 1e3, c / ga);
 		printf("    with pass timestamps        decode pass %.2f ms, normals pass %.2f ms, strips pass %.2f ms\n",
 		       gad * 1e3, gan * 1e3, gas * 1e3);
+		printf("    process CPU time           %8.2f ms (all threads); with the entropy stage, spread over %u core(s): "
+		       "the ratio GPU/CPU at most %.2f\n",
+		       gac * 1e3, cores, bound);
 		printf("  CPU normals (1 thread)       %8.2f ms  (the normals pass's twin)\n", cn * 1e3);
 		printf("  CPU strip bounds (1 thread)  %8.2f ms  (the strips pass's twin; with the reference and the normals: "
 		       "%.2f ms, ratio GPU/CPU at equal outputs %.2f)\n", cs * 1e3, (c + cn + cs) * 1e3, (c + cn + cs) / g);

@@ -7,6 +7,10 @@
 struct relief_file;
 
 double bench_now(void);
+/* CPU time of the whole process (every thread, the driver's too), seconds. */
+double bench_cpu_time(void);
+/* CPUs this process may run on (its affinity mask), at least 1. */
+uint32_t bench_cores(void);
 /* Median of n values (sorts them). */
 double bench_median(double *v, size_t n);
 /* The q-quantile (0 < q <= 1) of n >= 1 values, the smallest value with at least q n of

@@ -248,11 +248,30 @@ alone_ok() { # name
 		passes=$((passes + 1))
 	fi
 }
+# the bound: the device-alone runs' process CPU time fits in the cores' time over their wall
+# time, the bound is the reference over that time and the entropy stage's spread over the
+# cores, and the GPU path took no less wall time than that spread (within a fifth: the runs
+# are apart, and on a machine shared with other tests the wall time only grows); on a CPU
+# device the process's CPU time holds the device's busy time (the driver's threads do it)
+bound_ok() { # name
+	local cpu=0
+	grep -q '"device_type":"CPU"' <<<"$LAST_OUT" && cpu=1
+	if ! awk -v a="$(field gpu_alone_wall_ms)" -v u="$(field gpu_alone_cpu_ms)" -v n="$(field cores)" \
+		-v c="$(field cpu_ref_ms)" -v e="$(field entropy_ms)" -v g="$(field gpu_wall_ms)" \
+		-v r="$(field ratio_bound_cores)" -v b="$(field gpu_alone_busy_ms)" -v cpu="$cpu" \
+		'BEGIN { w = (e + u) / n; d = r - c / w; exit !(u > 0 && n >= 1 && u <= n * a + 1 && (d < 0 ? -d : d) <= 0.01 * c / w + 0.002 && g >= 0.8 * w && (!cpu || u >= 0.9 * b)) }'; then
+		echo "FAIL $1: $LAST_OUT"; fails=$((fails + 1))
+	else
+		passes=$((passes + 1))
+	fi
+}
 alone_ok bench-decode-alone
+bound_ok bench-decode-bound
 # more patches than one chunk of the device-alone run (Puget Sound's 85: 64 and 21)
 vkcheck bench-decode-chunks 0 "$relief" bench decode "$tmp/ps.relief" --runs 1 --json
 expect_text bench-decode-chunks-patches '"file":"ps.relief","patches":85,'
 alone_ok bench-decode-chunks-alone
+bound_ok bench-decode-chunks-bound
 # A level whose index window is smaller than its grid of patches (the crop: 3 x 2 of 4 x 4
 # at the finest level): the CPU side takes each patch's block in entry order (it once
 # read past the decoded blocks, which the sanitiser build reported).
