@@ -22,9 +22,9 @@
  *             the device's own work with the worker idle (on a CPU device the two
  *             otherwise share the cores), and the reference over it; its passes split
  *             by as many runs again with the pass timestamps; and the process's CPU time
- *             over it (every thread), which with the entropy stage's bounds the ratio
- *             on a CPU device: the path cannot take less wall time than the two spread
- *             evenly over the cores (ratio_bound_cores). */
+ *             over it (every thread), which, with the entropy stage's time, bounds the
+ *             ratio on a CPU device: the path cannot take less wall time than the two
+ *             spread evenly over the cores (ratio_bound_cores). */
 #include <errno.h>
 #include <getopt.h>
 #include <stdio.h>
@@ -355,8 +355,9 @@ int bench_decode(int argc, char **argv)
 	double ga = bench_median(alone, runs), gab = bench_median(alone_busy, runs), gac = bench_median(alone_cpu, runs);
 	/* No scheduling of the path's work on these cores beats its CPU time spread evenly
 	 * over them: the entropy stage (e, one thread) and everything else the device-alone
-	 * run cost the process (gac). Upper bound of the ratio on a CPU device, given its cost
-	 * of the shaders; on a GPU gac is the host's share only and the bound means little. */
+	 * run cost the process (gac). An upper bound of the ratio on a CPU device, given what
+	 * the shaders cost there; on a GPU gac is the host's share only and the bound says
+	 * little. */
 	const uint32_t cores = bench_cores();
 	const double bound = c * cores / (e + gac);
 	double gad = bench_median(alone_dec, runs), gan = bench_median(alone_nrm, runs), gas = bench_median(alone_str, runs);
