@@ -252,14 +252,16 @@ alone_ok() { # name
 # time, the bound is the reference over that time and the entropy stage's spread over the
 # cores, and the GPU path took no less wall time than that spread (within a fifth: the runs
 # are apart, and on a machine shared with other tests the wall time only grows); on a CPU
-# device the process's CPU time holds the device's busy time (the driver's threads do it)
+# device the process's CPU time holds the device's work, which its driver's threads do:
+# at least half its busy time (1.1-1.9 times it on an idle machine; another test beside it
+# stretches the busy time, not the CPU time; the calling thread's clock alone reads 0.01-0.09)
 bound_ok() { # name
 	local cpu=0
 	grep -q '"device_type":"CPU"' <<<"$LAST_OUT" && cpu=1
 	if ! awk -v a="$(field gpu_alone_wall_ms)" -v u="$(field gpu_alone_cpu_ms)" -v n="$(field cores)" \
 		-v c="$(field cpu_ref_ms)" -v e="$(field entropy_ms)" -v g="$(field gpu_wall_ms)" \
 		-v r="$(field ratio_bound_cores)" -v b="$(field gpu_alone_busy_ms)" -v cpu="$cpu" \
-		'BEGIN { w = (e + u) / n; d = r - c / w; exit !(u > 0 && n >= 1 && u <= n * a + 1 && (d < 0 ? -d : d) <= 0.01 * c / w + 0.002 && g >= 0.8 * w && (!cpu || u >= 0.9 * b)) }'; then
+		'BEGIN { w = (e + u) / n; d = r - c / w; exit !(u > 0 && n >= 1 && u <= n * a + 1 && (d < 0 ? -d : d) <= 0.01 * c / w + 0.002 && g >= 0.8 * w && (!cpu || u >= 0.5 * b)) }'; then
 		echo "FAIL $1: $LAST_OUT"; fails=$((fails + 1))
 	else
 		passes=$((passes + 1))
