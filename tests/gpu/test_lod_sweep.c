@@ -45,9 +45,12 @@
  * 1,000 a scene (seed 48), 9,222 frames (512 million triangles); none with a seam or over
  * tau, the worst 0.9988 tau. The forty-sixth, 300 a scene (seed 49): 2,758 frames (208
  * million triangles); 1,000 a scene (seed 50): 9,074 frames (594 million triangles); none
- * with a seam or over tau, the worst 0.9983 tau (the 2049 and 4097 coasts). The 1025
- * coast is rough at the shore, where the sea splits beside the land; the 2049 one smooth
- * for 32 samples, where the sea stays up to 4 levels coarser (coast_dem()).
+ * with a seam or over tau, the worst 0.9983 tau (the 2049 and 4097 coasts). The
+ * forty-seventh, 300 a scene (seed 51): 2,794 frames (204 million triangles); 1,000 a scene
+ * (seed 52): 9,090 frames (559 million triangles); none with a seam or over tau, the worst
+ * 0.9989 tau (the 4097 coast). The 1025 coast is rough at the shore, where the sea
+ * splits beside the land; the 2049 one smooth for 32 samples, where the sea stays up to 4
+ * levels coarser (coast_dem()).
  * Negative controls, run when the test was written (30 views a scene): the evaluation
  * shader ignoring the side seal records puts seams in 14 of Puget Sound's 27 frames with
  * terrain and 7 of the 1025 coast's 25; border edges not raised for a finer patch across
