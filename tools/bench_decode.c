@@ -373,14 +373,13 @@ int bench_decode(int argc, char **argv)
 		       "\"cpu_ref_ms\":%.4f,\"cpu_normals_ms\":%.4f,\"cpu_strips_ms\":%.4f,\"ratio_same_outputs\":%.3f,"
 		       "\"gpu_alone_wall_ms\":%.4f,\"gpu_alone_busy_ms\":%.2f,\"ratio_cpu_over_gpu_alone\":%.3f,"
 		       "\"gpu_alone_decode_pass_ms\":%.2f,\"gpu_alone_normals_pass_ms\":%.2f,\"gpu_alone_strips_pass_ms\":%.2f,"
-		       "\"entropy_ms\":%.4f,\"gpu_alone_cpu_ms\":%.4f,\"cores\":%u,\"ratio_bound_cores\":%.3f,"
-		       "\"device_type\":\"%s\"",
+		       "\"entropy_ms\":%.4f,\"gpu_alone_cpu_ms\":%.4f,\"cores\":%u,\"ratio_bound_cores\":%.3f",
 		       patches, samples / g / 1e6, samples / c / 1e6, samples / e / 1e6, c / g,
 		       (unsigned long long)st.bytes_per_layer, patches / g, g * 1e3, gb * 1e3, pb * 1e3, gd * 1e3, gn * 1e3,
 		       gs * 1e3, w * 1e3, (unsigned long long)st.batches, descent, f->hdr.levels, workers, runs, c * 1e3, cn * 1e3,
 		       cs * 1e3, (c + cn + cs) / g, ga * 1e3, gab * 1e3, c / ga, gad * 1e3, gan * 1e3, gas * 1e3, e * 1e3,
-		       gac * 1e3, cores, bound, relief_vk_device_type_name(vk->props.deviceType));
-		bench_json_machine(vk->props.deviceName);
+		       gac * 1e3, cores, bound);
+		bench_json_machine(vk);
 	} else {
 		printf("relief bench decode: %s, %u non-empty patches of %u^2 samples, on %s (%s), CPU %s, %u run(s), "
 		       "medians\n", base, patches, P, vk->props.deviceName, relief_vk_device_type_name(vk->props.deviceType),

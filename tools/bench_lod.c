@@ -425,7 +425,7 @@ static void result_print_json(const struct run *r, const struct config *cfg, con
 		if (res->mesh_max >= 0)
 			equal_error_print_json(cfg, results, n, i, true, "at_equal_mesh_error");
 	}
-	bench_json_machine(r->gpu.vk->props.deviceName);
+	bench_json_machine(r->gpu.vk);
 }
 
 /* One configuration's result as a row of the text table. */

@@ -8,20 +8,18 @@
 #include "bench_util.h"
 #include "cli.h"
 #include "format.h"
+#include "vk.h"
 
-double bench_now(void)
+static double clock_seconds(clockid_t id)
 {
 	struct timespec ts;
-	clock_gettime(CLOCK_MONOTONIC, &ts);
+	clock_gettime(id, &ts);
 	return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-double bench_cpu_time(void)
-{
-	struct timespec ts;
-	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-	return ts.tv_sec + ts.tv_nsec * 1e-9;
-}
+double bench_now(void) { return clock_seconds(CLOCK_MONOTONIC); }
+
+double bench_cpu_time(void) { return clock_seconds(CLOCK_PROCESS_CPUTIME_ID); }
 
 uint32_t bench_cores(void)
 {
@@ -86,11 +84,13 @@ uint32_t bench_decoded_patches(const struct relief_file *f)
 	return n;
 }
 
-void bench_json_machine(const char *device)
+void bench_json_machine(const struct relief_vk *vk)
 {
-	if (device) {
+	if (vk) {
+		printf(",\"device_type\":");
+		cli_json_string(stdout, relief_vk_device_type_name(vk->props.deviceType));
 		printf(",\"device\":");
-		cli_json_string(stdout, device);
+		cli_json_string(stdout, vk->props.deviceName);
 	}
 	printf(",\"cpu\":");
 	cli_json_string(stdout, bench_cpu_name());

@@ -5,6 +5,7 @@
 #include <stdint.h>
 
 struct relief_file;
+struct relief_vk;
 
 double bench_now(void);
 /* CPU time of the whole process (every thread, the driver's too), seconds. */
@@ -20,6 +21,7 @@ double bench_quantile(double *v, size_t n, double q);
 uint32_t bench_decoded_patches(const struct relief_file *f);
 /* "model name" from /proc/cpuinfo, or "unknown CPU". */
 const char *bench_cpu_name(void);
-/* Ends a JSON record on stdout with the machine: ,"device":"..." (when device is not NULL),
- * ,"cpu":"..." and the closing brace and newline. */
-void bench_json_machine(const char *device);
+/* Ends a JSON record on stdout with the machine: ,"device_type":"..." and ,"device":"..."
+ * (relief_vk_device_type_name() and the device's name, when vk is not NULL), ,"cpu":"..."
+ * and the closing brace and newline. */
+void bench_json_machine(const struct relief_vk *vk);

@@ -376,7 +376,7 @@ int cmd_fly(int argc, char **argv)
 		for (uint32_t l = 0; l < f->hdr.levels; l++)
 			printf("%s%u", l ? "," : "", s.last_levels[l]);
 		printf("]");
-		bench_json_machine(g.vk->props.deviceName);
+		bench_json_machine(g.vk);
 	} else {
 		printf("relief fly: %s, %u frames of %u channel(s) at %ux%u, tau %g px%s, %.2f s of track at %g Hz, on %s\n",
 		       path, frames, channels, width, height, tau, morph ? " morphed" : "", seconds, fps,
