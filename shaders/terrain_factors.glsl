@@ -8,7 +8,8 @@
 // version 4, common/patch_error.h), so unlike the paper no Err(P) is added to it. The
 // paper measures the segment at the edge's midpoint only; here it is
 // measured at both endpoints too (the largest projection wins), because an edge whose end
-// is nearer the camera than its middle broke the bound in the benchmark. Both blocks of an
+// is nearer the camera than its middle broke the bound in the benchmark, and half a block
+// deep on both sides, where the strips along the edge reach (edge_factor()). Both blocks of an
 // edge compute it from the same numbers, so the patch is seamless inside, and so is a border
 // between two patches drawn at the same level (border_errors); between levels the finer
 // patch draws its border with the coarser patch's vertices, on its drawn edge
@@ -88,8 +89,9 @@ vec4 clip_of(vec3 p)
 
 vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m)); }
 
-// Sample m's position raised (or lowered) to the measuring height h, in clip space.
-vec4 check_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(m + 0.5), h)); }
+// Sample m's position raised (or lowered) to the measuring height h, in clip space; m may
+// lie beyond the patch (a band across its border), so it is rounded down, not toward 0.
+vec4 check_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(floor(m + 0.5)), h)); }
 
 // The largest vertical error, metres, whose segment centred on clip point c projects to at
 // most tau pixels. The segment of length e = 2 s has its ends at c -/+ s z, z = vp[2], and
@@ -167,22 +169,21 @@ bool level_passes(vec4 eps, int d, float allowed)
 	return e <= allowed;
 }
 
-// The coarsest level d whose error segment, measured at each of `n` points (clip space),
-// is within tau (0: full detail), its factor 16 / 2^d, and its morph byte: eps_d at most
-// the least allowed_error() of the points, worked out once per point (until December 2026
-// each level's segment was projected at each point, which took the factor pass about a
-// fifth longer at tau = 1; the same inequality, rounded differently).
-float error_factor(vec4 c[3], int n, vec4 eps, out uint morph)
+// The least allowed_error() at the points `across` (patch samples) from the ends and the
+// middle of the axis-aligned edge a-b, and, if `both`, as far the other way, at measuring
+// height h: where a band that deep along the edge is measured. Both blocks of an edge, and
+// both patches of a border drawn at one level, reach the same points from the same
+// integers (no camera position in them), so they agree on the factor.
+float band_allowed(Instance it, vec2 a, vec2 b, vec2 across, bool both, float h)
 {
+	vec2 m = (a + b) * 0.5;
 	float allowed = 1.0 / 0.0;
-	for (int i = 0; i < n; i++)
-		allowed = min(allowed, allowed_error(c[i]));
-	int d = 4;
-	for (; d >= 1; d--)
-		if (level_passes(eps, d, allowed))
-			break;
-	morph = morph_byte(eps, d, allowed);
-	return float(BLOCK_CELLS >> uint(d));
+	for (int s = both ? -1 : 1; s <= 1; s += 2) {
+		vec2 o = float(s) * across;
+		allowed = min(allowed, min(allowed_error(check_clip(it, a + o, h)),
+		                           min(allowed_error(check_clip(it, m + o, h)), allowed_error(check_clip(it, b + o, h)))));
+	}
+	return allowed;
 }
 
 float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint morph)
@@ -201,9 +202,31 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 		float f = clamp(len / pc.target_px, 1.0, float(BLOCK_CELLS));
 		return exp2(floor(log2(f)));
 	}
+	// The coarsest level d whose eps_d is at most the least allowed_error() at the edge's ends
+	// and middle (0: full detail) and, where the strips along it are bounded, across the band
+	// they can reach: a coarse-edge strip at level d lies within 2^(d-1) samples of the edge,
+	// between it and the finer interior's inner ring, so the edge is also measured half a
+	// block deep on both sides (band_allowed()). Measured on the edge alone, a strip's
+	// triangle half a block nearer the camera than its edge was 1.0014 tau off in
+	// test_lod_sweep (forty-eighth December 2026 session). One allowed error for every level,
+	// so that a finer level never has less room than a coarser one and a morphing edge's
+	// new vertices start on the coarser level's surface (morph_byte()); measured at each
+	// level's own depth, test_morph_continuous's blend jumped by 0.14 px. Each allowed error
+	// is worked out once per point (until December 2026 each level's segment was projected
+	// at each point, which took the factor pass about a fifth longer at tau = 1).
 	float h = check_height(range);
-	vec4 pts[3] = vec4[3](check_clip(it, a, h), check_clip(it, (a + b) * 0.5, h), check_clip(it, b, h));
-	return error_factor(pts, 3, eps, morph);
+	float allowed = min(allowed_error(check_clip(it, a, h)),
+	                    min(allowed_error(check_clip(it, (a + b) * 0.5, h)), allowed_error(check_clip(it, b, h))));
+	if (strips_bounded()) {
+		vec2 across = float(BLOCK_CELLS / 2u) * vec2(a.x == b.x ? 1.0 : 0.0, a.y == b.y ? 1.0 : 0.0);
+		allowed = min(allowed, band_allowed(it, a, b, across, true, h));
+	}
+	int d = 4;
+	for (; d >= 1; d--)
+		if (level_passes(eps, d, allowed))
+			break;
+	morph = morph_byte(eps, d, allowed);
+	return float(BLOCK_CELLS >> uint(d));
 }
 
 // Errors for the edge of border block bl on `side` (0 north, 1 south, 2 west, 3 east): the
@@ -229,6 +252,14 @@ vec4 nearest_point(Instance it, vec2 lo, float h)
 	vec2 step = it.spacing * float(it.scale);
 	vec2 cam = vec2(-o.x / step.x, o.y / step.y); // camera in patch samples
 	return check_clip(it, clamp(cam, lo, lo + float(BLOCK_CELLS)), h);
+}
+
+// Ends of block bl's edge on `side`, in patch samples (the same pairs the quads use).
+void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
+{
+	vec2 lo = vec2(bl) * float(BLOCK_CELLS), c = float(BLOCK_CELLS) * vec2(side == 3u ? 1.0 : 0.0, side == 1u ? 1.0 : 0.0);
+	a = lo + c;
+	b = lo + (side < 2u ? vec2(float(BLOCK_CELLS), c.y) : vec2(c.x, float(BLOCK_CELLS)));
 }
 
 // The interior factor of the block at lo with errors eps, clip-space corners, edge middles
@@ -274,15 +305,22 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 	// level, which leaves strips along coarser edges only, which their edges' own levels
 	// bound (edge_eps_at()). A level-4 interior (factor 1, drawn as the centre alone) is
 	// no coarser than it looks against edges of 2 segments.
+	// The strip lies between the edge and the inner ring one interior cell (2^d samples) in;
+	// it is measured there too (the band below), as an edge's coarse-edge strips are.
 	int finest = findMSB(int(BLOCK_CELLS) / int(finest_edge));
 	if (d == finest + 1 && finest <= 2 && strips_bounded()) {
 		ivec2 bl = ivec2(lo) / int(BLOCK_CELLS);
+		const vec2 inward[4] = vec2[4](vec2(1.0, 0.0), vec2(0.0, 1.0), vec2(-1.0, 0.0), vec2(0.0, -1.0));
 		for (uint k = 0u; k < 4u && d > finest; k++) {
 			if (edges[k] != finest_edge)
 				continue;
 			float e = strip_fine_at(it.layer, bl, k, finest);
 			ivec3 q = edge_points(k);
-			if (e > min(min(at[q.x], at[q.y]), min(at[q.z], at[4]))) // a fan reaches the centre
+			const uint side[4] = uint[4](2u, 0u, 3u, 1u); // edge k's side (block_edge())
+			vec2 a, b;
+			block_edge(bl, side[k], a, b);
+			float band = band_allowed(it, a, b, float(1 << d) * inward[k], false, h);
+			if (e > min(min(min(at[q.x], at[q.y]), min(at[q.z], at[4])), band)) // a fan reaches the centre
 				d = finest;
 		}
 	}
@@ -296,14 +334,6 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 	}
 	morph = morph_byte(eps, d, allowed);
 	return float(BLOCK_CELLS >> uint(d));
-}
-
-// Ends of block bl's edge on `side`, in patch samples (the same pairs the quads use).
-void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
-{
-	vec2 lo = vec2(bl) * float(BLOCK_CELLS), c = float(BLOCK_CELLS) * vec2(side == 3u ? 1.0 : 0.0, side == 1u ? 1.0 : 0.0);
-	a = lo + c;
-	b = lo + (side < 2u ? vec2(float(BLOCK_CELLS), c.y) : vec2(c.x, float(BLOCK_CELLS)));
 }
 
 // The factor of border block bl's edge on `side` of patch `it`, as `it` draws it.

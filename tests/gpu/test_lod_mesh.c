@@ -246,6 +246,27 @@ static void test_mesh_finer_border(void **state)
 	mesh_within_tau_view(&b, "rough coast", poses, 1, taus, 2, 0, 0);
 }
 
+/* The rough coast again (65-sample patches), view 61 of test_lod_sweep's seed 54 (1,000
+ * views a scene; forty-eighth December 2026 session): a driver's eye 2 m above the land,
+ * looking 3.8 degrees down across 23 km, tau 2. A block edge's factor was measured at the
+ * edge alone, but its coarse-edge strip's triangles reach half a block into the block, here
+ * towards the camera: one was 2.0027 px off (1.0014 tau). The edge is now measured across
+ * the band its strips can reach too (band_allowed(), terrain_factors.glsl). Negative
+ * control, run when this was added: the previous terrain_factors.glsl fails here. */
+static void test_mesh_strip_band(void **state)
+{
+	struct relief_dem dem = coast_dem(1025, 0);
+	struct bound_scene b;
+	bound_open_dem_patch(&b, vk, &dem, 65);
+	relief_dem_finish(&dem);
+	load_everything(&b.s);
+	const struct pose pose = { { 26273.015266656872, 26499.60079908371, 2012.3325962126255 },
+		                   { 26438.943872515232, 25515.707406797133, 1945.8383079412499 } };
+	const double taus[] = { 2.0 };
+	mesh_within_tau_view(&b, "rough coast, sweep seed 54 view 61", &pose, 1, taus, 1, 0.5,
+	                     0.70852798973700903 * 180 / M_PI);
+}
+
 /* Mont Blanc at UTM-like coordinates (500 km east, 5,000 km north) measures as at the
  * origin, to a millionth: the capture's vertices are grid samples and the measure works
  * in double precision. */
@@ -541,6 +562,7 @@ int main(void)
 		cmocka_unit_test(test_mesh_wide_field_of_view),
 		cmocka_unit_test(test_mesh_level_jumps),
 		cmocka_unit_test(test_mesh_finer_border),
+		cmocka_unit_test(test_mesh_strip_band),
 		cmocka_unit_test(test_mesh_huge_coordinates),
 		cmocka_unit_test(test_mesh_capture_and_measure),
 		cmocka_unit_test(test_mesh_loose_transitions),
