@@ -53,7 +53,9 @@
  * coast). Then 1,000 a scene (seed 54) found the rough coast's view 61 2.0027 px off at
  * tau 2 (1.0014 tau): a coarse-edge strip's triangle half a block nearer the camera than
  * the edge its factor was measured on; edges are now measured across that band too
- * (band_allowed(), terrain_factors.glsl; test_mesh_strip_band keeps the view). The 1025
+ * (band_allowed(), terrain_factors.glsl; test_mesh_strip_band keeps the view), and seed 54
+ * again: 9,101 frames (606 million triangles), none with a seam or over tau, the worst
+ * 0.9978 tau (the 4097 coast). The 1025
  * coast is rough at the shore, where the sea splits beside the land; the 2049 one smooth
  * for 32 samples, where the sea stays up to 4 levels coarser (coast_dem()).
  * Negative controls, run when the test was written (30 views a scene): the evaluation
