@@ -247,8 +247,8 @@ static void test_mesh_finer_border(void **state)
 }
 
 /* The rough coast again (65-sample patches), view 61 of test_lod_sweep's seed 54 (1,000
- * views a scene; forty-eighth December 2026 session): a driver's eye 2 m above the land,
- * looking 3.8 degrees down across 23 km, tau 2. A block edge's factor was measured at the
+ * views a scene; forty-eighth December 2026 session): a driver's eye (1.5-3 m above the
+ * land) looking 3.8 degrees down across 23 km, tau 2. A block edge's factor was measured at the
  * edge alone, but its coarse-edge strip's triangles reach half a block into the block, here
  * towards the camera: one was 2.0027 px off (1.0014 tau). The edge is now measured across
  * the band its strips can reach too (band_allowed(), terrain_factors.glsl). Negative
