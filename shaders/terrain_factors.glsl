@@ -207,7 +207,7 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 	// they can reach: a coarse-edge strip at level d lies within 2^(d-1) samples of the edge,
 	// between it and the finer interior's inner ring, so the edge is also measured half a
 	// block deep on both sides (band_allowed()). Measured on the edge alone, a strip's
-	// triangle half a block nearer the camera than its edge was 1.0014 tau off in
+	// triangle reaching half a block from its edge towards the camera was 1.0014 tau off in
 	// test_lod_sweep (forty-eighth December 2026 session). One allowed error for every level,
 	// so that a finer level never has less room than a coarser one and a morphing edge's
 	// new vertices start on the coarser level's surface (morph_byte()); measured at each

@@ -51,8 +51,8 @@
  * 0.9989 tau (the 4097 coast). The forty-eighth, 300 a scene (seed 53): 2,763 frames (163
  * million triangles), none with a seam or over tau, the worst 0.9975 tau (the 4097
  * coast). Then 1,000 a scene (seed 54) found the rough coast's view 61 2.0027 px off at
- * tau 2 (1.0014 tau): a coarse-edge strip's triangle half a block nearer the camera than
- * the edge its factor was measured on; edges are now measured across that band too
+ * tau 2 (1.0014 tau): a coarse-edge strip's triangle reaching half a block from the edge
+ * its factor was measured on, towards the camera; edges are now measured across that band too
  * (band_allowed(), terrain_factors.glsl; test_mesh_strip_band keeps the view), and seed 54
  * again: 9,101 frames (606 million triangles), none with a seam or over tau, the worst
  * 0.9978 tau (the 4097 coast). The 1025
