@@ -104,7 +104,6 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		float h = check_height(range);
 		bool errors = fine_lod() == FINE_ERRORS;
 		// Edges in the order of the outer factors: west, north, east, south.
-		const uint sides[4] = uint[4](2u, 0u, 3u, 1u);
 		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
 		// Edges on the patch's border first: lod_borders.comp has their factors and seals.
 		float f[4];
@@ -115,7 +114,8 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			inner_edge[i] = nb.x >= 0 && nb.y >= 0 && nb.x < b && nb.y < b;
 			if (inner_edge[i])
 				continue;
-			uvec2 rec = border_edge(slot, sides[i], sides[i] >= 2u ? bl.y : bl.x);
+			uint side = side_of_edge(uint(i));
+			uvec2 rec = border_edge(slot, side, side >= 2u ? bl.y : bl.x);
 			if (i % 2 == 0)
 				seal.x = rec.y; // west or east
 			else
@@ -150,7 +150,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			               edge_eps_at(it.layer, nb, uint(i + 2) % 4u, block_eps(it, nb.x, nb.y)));
 			vec2 rn = block_range_at(it.layer, nb), er = vec2(min(range.x, rn.x), max(range.y, rn.y));
 			vec2 a, c;
-			block_edge(bl, sides[i], a, c);
+			block_edge(bl, side_of_edge(uint(i)), a, c);
 			f[i] = edge_factor(it, a, c, eps, er, m[i]);
 		}
 		outer = vec4(f[0], f[1], f[2], f[3]);

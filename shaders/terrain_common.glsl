@@ -52,6 +52,8 @@ ivec2 border_block_in(uint side, int a, uint blocks)
 // A block's edge index (0 west, 1 north, 2 east, 3 south: the outer factors' order) of
 // side `side` (0 north, 1 south, 2 west, 3 east).
 uint edge_of_side(uint side) { return side == 0u ? 1u : side == 1u ? 3u : side == 2u ? 0u : 2u; }
+// And back: the side (0 north, 1 south, 2 west, 3 east) of edge `edge` (0 west, 1 north, 2 east, 3 south).
+uint side_of_edge(uint edge) { return edge == 0u ? 2u : edge == 1u ? 0u : edge == 2u ? 3u : 1u; }
 
 // A drawn patch's border items (lod_borders.comp, one invocation and one record each): the
 // block edges of its 4 sides (north, south, west, east; `blocks` each), then its 4 corners.

@@ -215,8 +215,7 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 	// is worked out once per point (until December 2026 each level's segment was projected
 	// at each point, which took the factor pass about a fifth longer at tau = 1).
 	float h = check_height(range);
-	float allowed = min(allowed_error(check_clip(it, a, h)),
-	                    min(allowed_error(check_clip(it, (a + b) * 0.5, h)), allowed_error(check_clip(it, b, h))));
+	float allowed = band_allowed(it, a, b, vec2(0.0), false, h); // on the edge
 	if (strips_bounded()) {
 		vec2 across = float(BLOCK_CELLS / 2u) * vec2(a.x == b.x ? 1.0 : 0.0, a.y == b.y ? 1.0 : 0.0);
 		allowed = min(allowed, band_allowed(it, a, b, across, true, h));
@@ -316,9 +315,8 @@ float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 
 				continue;
 			float e = strip_fine_at(it.layer, bl, k, finest);
 			ivec3 q = edge_points(k);
-			const uint side[4] = uint[4](2u, 0u, 3u, 1u); // edge k's side (block_edge())
 			vec2 a, b;
-			block_edge(bl, side[k], a, b);
+			block_edge(bl, side_of_edge(k), a, b);
 			float band = band_allowed(it, a, b, float(1 << d) * inward[k], false, h);
 			if (e > min(min(min(at[q.x], at[q.y]), min(at[q.z], at[4])), band)) // a fan reaches the centre
 				d = finest;
