@@ -457,6 +457,42 @@ double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t 
 	return sqrt(dx * dx + dy * dy);
 }
 
+/* The largest K / w^2 on the segment between (K, w) pairs p and q (allowed_box() in
+ * shaders/terrain_factors.glsl says why): at an end, or where its derivative is 0. */
+static double segment_max(const double p[2], const double q[2])
+{
+	double g = fmax(p[0] / (p[1] * p[1]), q[0] / (q[1] * q[1]));
+	double dk = q[0] - p[0], dw = q[1] - p[1], t = (dk * p[1] - 2.0 * p[0] * dw) / (dk * dw);
+	if (t > 0.0 && t < 1.0) {
+		double k = p[0] + t * dk, w = p[1] + t * dw;
+		g = fmax(g, k / (w * w));
+	}
+	return g;
+}
+
+double relief_box_allowed_error(const struct relief_mat4 *vp, uint32_t width, uint32_t height, double tau,
+                                const struct relief_vec3 c[4], double dh)
+{
+	const double *m = vp->m, zx = m[8], zy = m[9], zw = m[11]; /* the image of a metre up */
+	double kw[4][2], w_least = INFINITY;
+	for (int i = 0; i < 4; i++) {
+		double w;
+		struct relief_vec3 p = relief_mat4_transform(vp, c[i], &w);
+		double dx = 0.5 * width * (p.x * zw - zx * w), dy = 0.5 * height * (p.y * zw - zy * w);
+		kw[i][0] = sqrt(dx * dx + dy * dy);
+		kw[i][1] = w + fmin(0.0, dh * zw);
+		w_least = fmin(w_least, kw[i][1]);
+	}
+	if (!(w_least > 1e-6))
+		return 0.0;
+	double f = 0.0;
+	for (int i = 0; i < 4; i++)
+		for (int j = i + 1; j < 4; j++)
+			f = fmax(f, segment_max(kw[i], kw[j]));
+	double den = f * w_least + tau * fabs(zw);
+	return den > 0.0 ? tau * w_least / den : INFINITY;
+}
+
 double relief_surface_vertical_error(const struct relief_file *f, const float *hf, const uint8_t *valid,
                                      uint32_t w, uint32_t h, uint32_t step, struct relief_vec3 p, double *mid)
 {

@@ -101,7 +101,6 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		}
 		vec4 e = block_eps(it, bl.x, bl.y);
 		vec2 range = block_range_at(it.layer, bl);
-		float h = check_height(range);
 		bool errors = fine_lod() == FINE_ERRORS;
 		// Edges in the order of the outer factors: west, north, east, south.
 		const ivec2 toward[4] = ivec2[4](ivec2(-1, 0), ivec2(0, -1), ivec2(1, 0), ivec2(0, 1));
@@ -134,14 +133,6 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 			return;
 		}
 		inside = clip == BLOCK_INSIDE;
-		// The block's corners, edge middles and centre in clip space at its measuring height,
-		// 3 x 3 in raster order: where its interior is measured, and its edges at the height
-		// both blocks of the edge share.
-		vec4 pt[9];
-		const float half_block = float(BLOCK_CELLS / 2u);
-		if (errors)
-			for (int q = 0; q < 9; q++)
-				pt[q] = check_clip(it, lo + vec2(float(q % 3), float(q / 3)) * half_block, h);
 		for (int i = 0; i < 4; i++) {
 			if (!inner_edge[i])
 				continue;
@@ -156,7 +147,7 @@ void quad_factors(uint slot, Instance it, uint k, out vec4 outer, out vec2 inner
 		outer = vec4(f[0], f[1], f[2], f[3]);
 		morph.x = m[0] | (m[1] << 8u) | (m[2] << 16u) | (m[3] << 24u);
 		if (errors) { // isotropic: see the top of terrain_factors.glsl
-			inner = vec2(interior_factor(it, lo, e, h, pt, outer, morph.y));
+			inner = vec2(interior_factor(it, lo, e, range, outer, morph.y));
 		} else { // the distance baseline keeps one inner factor per direction, as such schemes do
 			inner = vec2(max(f[1], f[3]), max(f[0], f[2]));
 		}

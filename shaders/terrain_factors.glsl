@@ -3,24 +3,24 @@
 // through terrain_seal.glsl by the evaluation shader.
 //
 // Each edge of a tessellation block takes the coarsest simplification d (factor 16 / 2^d)
-// whose error segment, the larger eps_d of the blocks on both sides, projects to at most
-// tau pixels. eps_d is measured against the finest decoded surface directly (format
-// version 4, common/patch_error.h), so unlike the paper no Err(P) is added to it. The
-// paper measures the segment at the edge's midpoint only; here it is
-// measured at both endpoints too (the largest projection wins), because an edge whose end
-// is nearer the camera than its middle broke the bound in the benchmark, and half a block
-// deep on both sides, where the strips along the edge reach (edge_factor()). Both blocks of an
-// edge compute it from the same numbers, so the patch is seamless inside, and so is a border
-// between two patches drawn at the same level (border_errors); between levels the finer
-// patch draws its border with the coarser patch's vertices, on its drawn edge
-// (terrain_seal.glsl). The inner factor is the same in both directions (an interior of,
-// say, 8 x 4-sample cells is a triangulation that no eps_d measures, and the benchmark
-// caught one exceeding tau): the level the block's own errors need at its sample nearest
-// the camera, its corners, edge middles and centre, but at most one level coarser than its
-// finest edge (interior_factor; the paper takes the smallest edge factor). The
-// tessellator's transition strips between an edge and an interior of other factors are
-// bounded from the patch's samples (edge_eps_at(), interior_factor(); docs/lod.md,
-// "Transition triangles: what bounds them") unless the view is loose.
+// whose error, the larger eps_d of the blocks on both sides, projects to at most tau
+// pixels from anywhere in the band of triangles that the edge's level decides (the edge
+// and 2^(d-1) samples on both sides, where the strips along it reach; edge_factor()).
+// eps_d is measured against the finest decoded surface directly (format version 4,
+// common/patch_error.h), so unlike the paper no Err(P) is added to it. The paper measures
+// the segment at the edge's midpoint only; here the error is bounded over a box around the
+// triangles it applies to (allowed_box()), so the bound holds at every point, not at
+// chosen ones. Both blocks of an edge compute it from the same numbers, so the patch is
+// seamless inside, and so is a border between two patches drawn at the same level
+// (border_errors); between levels the finer patch draws its border with the coarser
+// patch's vertices, on its drawn edge (terrain_seal.glsl). The inner factor is the same in
+// both directions (an interior of, say, 8 x 4-sample cells is a triangulation that no eps_d
+// measures, and the benchmark caught one exceeding tau): the level the block's own errors
+// need over the block's box, but at most one level coarser than its finest edge
+// (interior_factor; the paper takes the smallest edge factor). The tessellator's
+// transition strips between an edge and an interior of other factors are bounded from the
+// patch's samples (edge_eps_at(), interior_factor(); docs/lod.md, "Transition triangles:
+// what bounds them") unless the view is loose.
 // Skirt quads remain only along the terrain's outer edge (a curtain): its block's factor
 // along the edge, 1 across.
 
@@ -55,12 +55,6 @@ float strip_fine_at(int layer, ivec2 bl, uint edge, int d)
 	return block_err(block_strip_index(layer, bl, edge, pc.blocks) + 4u + uint(d));
 }
 
-// The three of a block's nine measuring points (3 x 3, raster order) on edge `edge`.
-ivec3 edge_points(uint edge)
-{
-	return edge == 0u ? ivec3(0, 3, 6) : edge == 1u ? ivec3(0, 1, 2) : edge == 2u ? ivec3(2, 5, 8) : ivec3(6, 7, 8);
-}
-
 // Block bl's height range (low, high; metres): every sample of the block lies in it, so the
 // block drawn at any level does.
 vec2 block_range_at(int layer, ivec2 bl)
@@ -69,18 +63,9 @@ vec2 block_range_at(int layer, ivec2 bl)
 	return vec2(block_err(base), block_err(base + 1u));
 }
 
-// The height at which error segments are projected over a height range: a vertical error
-// segment's image grows as its point nears the camera along the view axis, so where the
-// camera looks down (clip w falls with height) the top of the range, else the bottom.
-// Projected at the samples' own heights instead, a ridge higher than every measuring point
-// was nearer than all of them, and a flight pixel broke tau by 2 % (docs/lod.md).
-float check_height(vec2 range) { return pc.vp[2].w < 0.0 ? range.y : range.x; }
-
 // `precise` throughout: both patches at a border must reach the same factor from the same
 // numbers, so no call site may fuse operations differently.
 
-// Clip-space image of a point: an error segment of length e centred on it then ends at
-// c -/+ (e/2) vp[2] (vp's z column), so allowed_error() needs no matrix product.
 vec4 clip_of(vec3 p)
 {
 	precise vec4 c = pc.vp * vec4(p, 1.0);
@@ -89,30 +74,114 @@ vec4 clip_of(vec3 p)
 
 vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m)); }
 
-// Sample m's position raised (or lowered) to the measuring height h, in clip space; m may
-// lie beyond the patch (a band across its border), so it is rounded down, not toward 0.
-vec4 check_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(floor(m + 0.5)), h)); }
+// Sample m (which may lie beyond the patch: a band across its border) at height h, in clip
+// space.
+vec4 sample_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(m), h)); }
 
-// The largest vertical error, metres, whose segment centred on clip point c projects to at
-// most tau pixels. The segment of length e = 2 s has its ends at c -/+ s z, z = vp[2], and
-// its image on the viewport is 2 s K / (c.w^2 - s^2 z.w^2) pixels long, K = |viewport / 2 *
-// (c.xy z.w - z.xy c.w)|, growing with s until an end reaches the camera's plane; the
-// root of tau (c.w^2 - s^2 z.w^2) = 2 s K, in the form without cancellation, is where it
-// reaches tau, and any shorter segment projects shorter. So a level passes at c exactly
-// when its error is at most this.
-float allowed_error(vec4 c)
+// The error allowed over a box (docs/lod.md, "Fine LOD"). A vertical segment of length e
+// with ends c1 and c2 = c1 + e z in clip space (z = vp[2], the image of a metre up) is
+// e |D(c1)| / (c1.w c2.w) pixels long on the viewport, where D(c) = viewport / 2 *
+// (c.xy z.w - z.xy c.w); D(c2) = D(c1). So with K = |D| and w = c.w at its drawn end c1,
+// and c2.w >= w - e |z.w|, its image is at most e (K / w^2) w / (w - e |z.w|). The drawn
+// end of every error segment of a block lies in the block's box (each drawn point
+// interpolates the block's samples, which its height range holds), so a bound on K / w^2
+// and a least w over the box bound every segment's image there (allowed_box()): a level
+// whose error is within that is within tau at every point of the box, not only at
+// measuring points. Until the forty-ninth December 2026 session the segment was projected
+// at ten points of a block and at nine along an edge, and test_lod_sweep found a frame
+// whose triangle broke tau between them (1.0014 tau).
+
+// A point's part of a box's measure: (K, the least w over the heights from the point's
+// own to dh above it). D does not change with height; w changes by dh z.w.
+vec2 point_measure(vec4 c, float dh)
 {
-	if (c.w <= 1e-6)
-		return 0.0; // the point is behind the camera: keep full detail
 	vec4 z = pc.vp[2];
 	precise vec2 d = 0.5 * pc.viewport * (c.xy * z.w - z.xy * c.w);
-	precise float k = length(d);
-	precise float tw = pc.tau * z.w * c.w;
-	precise float den = k + sqrt(k * k + tw * tw);
+	precise float w = c.w + min(0.0, dh * z.w);
+	return vec2(length(d), w);
+}
+
+// The largest K / w^2 on the segment between point measures p and q (K, w): at an end, or
+// where its derivative along the segment is 0, (p.x + t dx) / (p.y + t dy)^2 with
+// t = (dx p.y - 2 p.x dy) / (dx dy) (dx, dy: q - p), if that lies between them; evaluated
+// at the computed t (an error in t changes the value to second order only).
+float segment_max(vec2 p, vec2 q)
+{
+	float g = max(p.x / (p.y * p.y), q.x / (q.y * q.y));
+	vec2 dq = q - p;
+	precise float t = (dq.x * p.y - 2.0 * p.x * dq.y) / (dq.x * dq.y);
+	if (t > 0.0 && t < 1.0) {
+		precise vec2 m = p + t * dq;
+		g = max(g, m.x / (m.y * m.y));
+	}
+	return g;
+}
+
+// The largest vertical error, metres, whose segment projects to at most tau pixels from
+// anywhere in the box whose four corners (through the whole height range) have point
+// measures a, b, c, d. A point of the box is a convex combination of the corners with
+// weights l: its w is at least l . w (the corners' least over the heights), its K at most
+// l . K (K is convex: D is linear in c, c affine in the point). So K / w^2 is at most the
+// largest (l . K) / (l . w)^2: over the convex hull of the corners' (w, K), which lies on
+// its boundary (moving up raises it), so on a segment between two corners (segment_max()),
+// F. With W the least w, the image of a segment of length e is then at most
+// e F W / (W - e |z.w|), which is tau at e = tau W / (F W + tau |z.w|). Where K / w^2 is
+// the same at every corner (the camera level: K grows as w), F is that and the bound is
+// what a single point gives; bounding K by its largest corner and w by its least instead
+// drew 13 % more triangles on Puget Sound at tau = 1.
+float allowed_box(vec2 a, vec2 b, vec2 c, vec2 d)
+{
+	float w = min(min(a.y, b.y), min(c.y, d.y));
+	if (w <= 1e-6)
+		return 0.0; // the box reaches the camera's plane: keep full detail
+	float f = max(max(max(segment_max(a, b), segment_max(a, c)), max(segment_max(a, d), segment_max(b, c))),
+	              max(segment_max(b, d), segment_max(c, d)));
+	precise float den = f * w + pc.tau * abs(pc.vp[2].w);
 	if (!(den > 0.0))
-		return 1.0 / 0.0; // the segment projects to a point
-	precise float s = pc.tau * c.w * c.w / den;
-	return 2.0 * s;
+		return 1.0 / 0.0; // every segment projects to a point
+	precise float e = pc.tau * w / den;
+	return e;
+}
+
+// The least error allowed over the block at lo (patch samples) between heights range: one
+// box (4 x 4 boxes of 4 samples measured the same triangles on Puget Sound but 10 at
+// tau = 4, and took the factor pass twice as long).
+float block_allowed(Instance it, vec2 lo, vec2 range)
+{
+	float dh = range.y - range.x, s = float(BLOCK_CELLS);
+	return allowed_box(point_measure(sample_clip(it, lo, range.x), dh),
+	                   point_measure(sample_clip(it, lo + vec2(s, 0.0), range.x), dh),
+	                   point_measure(sample_clip(it, lo + vec2(0.0, s), range.x), dh),
+	                   point_measure(sample_clip(it, lo + vec2(s, s), range.x), dh));
+}
+
+// An axis-aligned block edge from a to b (patch samples) between heights range: its ends
+// in clip space at the range's foot, and the step across it (a sample towards +x or +y).
+struct EdgeMeasure {
+	vec4 ca, cb, across;
+	float dh;
+};
+
+EdgeMeasure edge_measure(Instance it, vec2 a, vec2 b, vec2 range)
+{
+	EdgeMeasure e;
+	e.dh = range.y - range.x;
+	e.ca = sample_clip(it, a, range.x);
+	e.cb = sample_clip(it, b, range.x);
+	e.across = sample_clip(it, a + vec2(a.x == b.x ? 1.0 : 0.0, a.y == b.y ? 1.0 : 0.0), range.x) - e.ca;
+	return e;
+}
+
+// The least error allowed over the band `depth` samples deep on both sides of the edge (0:
+// the edge alone), one box. Both blocks of an edge, and both patches of a border drawn at
+// one level, have its ends and the sample across from the same integers (pos_of() gives
+// every patch the same bits for a sample), and the same expressions make the same corners
+// from them, so they agree on the factor.
+float band_allowed(EdgeMeasure e, float depth)
+{
+	precise vec4 off = depth * e.across;
+	precise vec4 a0 = e.ca - off, a1 = e.ca + off, b0 = e.cb - off, b1 = e.cb + off;
+	return allowed_box(point_measure(a0, e.dh), point_measure(a1, e.dh), point_measure(b0, e.dh), point_measure(b1, e.dh));
 }
 
 // Geomorphing (docs/lod.md, "Morphing"). A block edge or interior drawn at level d (factor
@@ -134,7 +203,8 @@ float allowed_error(vec4 c)
 // takes level d + 1 only where eps_{d+1} + eps_d is within the allowed error
 // (level_passes()): it draws more triangles than a view without morphing (docs/lod.md).
 // The eps are the edge's or the interior's own (an edge's at least its blocks'), and the
-// allowed error is taken at the measuring points, as for the levels themselves.
+// allowed error is the room of level d + 1 (an edge's over its wider band, which holds
+// level d's), as for the levels themselves.
 // t = min(1, MORPH_RATE t0) moves continuously with the camera; the blend is done within
 // the first 1 / MORPH_RATE of its range (a rate of 1 left every block part-way all the
 // time, with twice the RMS error on a 48-pair Puget Sound flight; docs/lod.md). t travels
@@ -169,23 +239,6 @@ bool level_passes(vec4 eps, int d, float allowed)
 	return e <= allowed;
 }
 
-// The least allowed_error() at the points `across` (patch samples) from the ends and the
-// middle of the axis-aligned edge a-b, and, if `both`, as far the other way, at measuring
-// height h: where a band that deep along the edge is measured. Both blocks of an edge, and
-// both patches of a border drawn at one level, reach the same points from the same
-// integers (no camera position in them), so they agree on the factor.
-float band_allowed(Instance it, vec2 a, vec2 b, vec2 across, bool both, float h)
-{
-	vec2 m = (a + b) * 0.5;
-	float allowed = 1.0 / 0.0;
-	for (int s = both ? -1 : 1; s <= 1; s += 2) {
-		vec2 o = float(s) * across;
-		allowed = min(allowed, min(allowed_error(check_clip(it, a + o, h)),
-		                           min(allowed_error(check_clip(it, m + o, h)), allowed_error(check_clip(it, b + o, h)))));
-	}
-	return allowed;
-}
-
 float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint morph)
 {
 	uint fine = fine_lod();
@@ -202,29 +255,26 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 		float f = clamp(len / pc.target_px, 1.0, float(BLOCK_CELLS));
 		return exp2(floor(log2(f)));
 	}
-	// The coarsest level d whose eps_d is at most the least allowed_error() at the edge's ends
-	// and middle (0: full detail) and, where the strips along it are bounded, across the band
-	// they can reach: a coarse-edge strip at level d lies within 2^(d-1) samples of the edge,
-	// between it and the finer interior's inner ring, so the edge is also measured half a
-	// block deep on both sides (band_allowed()). Measured on the edge alone, a strip's
-	// triangle reaching half a block from its edge towards the camera was 1.0014 tau off in
-	// test_lod_sweep (forty-eighth December 2026 session). One allowed error for every level,
-	// so that a finer level never has less room than a coarser one and a morphing edge's
-	// new vertices start on the coarser level's surface (morph_byte()); measured at each
-	// level's own depth, test_morph_continuous's blend jumped by 0.14 px. Each allowed error
-	// is worked out once per point (until December 2026 each level's segment was projected
-	// at each point, which took the factor pass about a fifth longer at tau = 1).
-	float h = check_height(range);
-	float allowed = band_allowed(it, a, b, vec2(0.0), false, h); // on the edge
-	if (strips_bounded()) {
-		vec2 across = float(BLOCK_CELLS / 2u) * vec2(a.x == b.x ? 1.0 : 0.0, a.y == b.y ? 1.0 : 0.0);
-		allowed = min(allowed, band_allowed(it, a, b, across, true, h));
-	}
+	// The coarsest level d whose eps_d is within the error allowed over the triangles that
+	// the edge's level decides (0: full detail): the edge itself and, where the strips along
+	// it are bounded, the band they reach, 2^(d-1) samples deep on both sides at level d (a
+	// coarse-edge strip lies between the edge and the finer interior's inner ring). Measured
+	// on the edge's ends and middle alone, a strip's triangle half a block from its edge
+	// towards the camera was 1.0014 tau off in test_lod_sweep (forty-eighth December 2026
+	// session). The bands nest, so a finer level never has less room than a coarser one,
+	// and a morphing edge's weights come from the failing level's room, where its new
+	// vertices start on that level's surface (morph_byte()): within the drawn level's room,
+	// which is no smaller.
+	EdgeMeasure e = edge_measure(it, a, b, range);
+	float failed = 0.0; // the room of the last level that failed
 	int d = 4;
-	for (; d >= 1; d--)
+	for (; d >= 1; d--) {
+		float allowed = band_allowed(e, strips_bounded() ? float(1 << (d - 1)) : 0.0);
 		if (level_passes(eps, d, allowed))
 			break;
-	morph = morph_byte(eps, d, allowed);
+		failed = allowed;
+	}
+	morph = d < 4 ? morph_byte(eps, d, failed) : MORPH_FULL;
 	return float(BLOCK_CELLS >> uint(d));
 }
 
@@ -243,16 +293,6 @@ void border_errors(Instance it, ivec2 bl, uint side, inout vec4 eps, inout vec2 
 	range = vec2(min(range.x, r.x), max(range.y, r.y));
 }
 
-// The block's sample nearest the camera (which sits at the origin) at measuring height h,
-// in clip space.
-vec4 nearest_point(Instance it, vec2 lo, float h)
-{
-	vec3 o = pos_of(it, ivec2(0), 0.0);
-	vec2 step = it.spacing * float(it.scale);
-	vec2 cam = vec2(-o.x / step.x, o.y / step.y); // camera in patch samples
-	return check_clip(it, clamp(cam, lo, lo + float(BLOCK_CELLS)), h);
-}
-
 // Ends of block bl's edge on `side`, in patch samples (the same pairs the quads use).
 void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 {
@@ -261,12 +301,12 @@ void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 	b = lo + (side < 2u ? vec2(float(BLOCK_CELLS), c.y) : vec2(c.x, float(BLOCK_CELLS)));
 }
 
-// The interior factor of the block at lo with errors eps, clip-space corners, edge middles
-// and centre pt, and edge factors `edges`. Until
+// The interior factor of the block at lo with errors eps, height range `range` and edge
+// factors `edges`: the level its own errors need over its box (block_allowed()). Until
 // the third session it was the largest edge factor (and the nearest sample's need), so an
 // edge made fine by the block across it, whose errors are larger, made this interior fine
-// too; measured at ten points with the block's own errors, Puget Sound at tau = 1 draws
-// 20 % fewer triangles. One level below the finest edge at most: without that limit, the
+// too; measured with the block's own errors, Puget Sound at tau = 1 drew 20 % fewer
+// triangles. One level below the finest edge at most: without that limit, the
 // tessellator's transition triangles between a fine edge and a much coarser interior put a
 // test pixel 1.007 px off at tau = 1. And never an inner factor of 2 against an edge of 4
 // or more: the interior is then the block's centre alone, and every triangle joins it to
@@ -277,50 +317,34 @@ void block_edge(ivec2 bl, uint side, out vec2 a, out vec2 b)
 // 2.65 px at tau = 2 (eighth December session; 1.84 px without the rule). With that limit
 // the rule costs 0-4.5 % more triangles. Every strip (and fan) left is bounded since
 // December 2026: the interior's strips below, the edges' in edge_eps_at().
-float interior_factor(Instance it, vec2 lo, vec4 eps, float h, vec4 pt[9], vec4 edges, out uint morph)
+float interior_factor(Instance it, vec2 lo, vec4 eps, vec2 range, vec4 edges, out uint morph)
 {
-	// Levels coarser than the limit are not tried: the search starts there, and each level
-	// stops at its first point over tau (passing is monotone in d, eps being so).
+	// Levels coarser than the limit are not tried: the search starts there (passing is
+	// monotone in d, eps being so).
 	float finest_edge = max(max(edges.x, edges.y), max(edges.z, edges.w));
 	float least = 0.5 * finest_edge;
 	float coarsest_edge = min(min(edges.x, edges.y), min(edges.z, edges.w));
 	if (least == 2.0 && coarsest_edge >= 2.0)
 		least = finest_edge; // not the centre alone against edges of 4, unless an edge has one segment (above)
 	int top = least <= 1.0 ? 4 : findMSB(int(BLOCK_CELLS) / int(least));
-	// The largest error each measuring point allows (as in error_factor()).
-	float at[9];
-	float allowed = allowed_error(nearest_point(it, lo, h));
-	for (int k = 0; k < 9; k++) {
-		at[k] = allowed_error(pt[k]);
-		allowed = min(allowed, at[k]);
-	}
+	float allowed = block_allowed(it, lo, range);
 	int d = top;
 	for (; d >= 1; d--)
 		if (level_passes(eps, d, allowed))
 			break;
 	// One level coarser than the finest edge makes a fine-edge strip (or a fan) along each
-	// edge at that level: kept only where its charge (strip_fine_at()) projects within tau
-	// at the edge's points and the block's centre, else the interior takes the finest edge's
-	// level, which leaves strips along coarser edges only, which their edges' own levels
-	// bound (edge_eps_at()). A level-4 interior (factor 1, drawn as the centre alone) is
-	// no coarser than it looks against edges of 2 segments.
-	// The strip lies between the edge and the inner ring one interior cell (2^d samples) in;
-	// it is measured there too (the band below), as an edge's coarse-edge strips are.
+	// edge at that level: kept only where its charge (strip_fine_at()) is within the
+	// block's allowed error (the strip, between the edge and the inner ring one interior
+	// cell in, or the fan to the centre, lies in the block), else the interior takes the
+	// finest edge's level, which leaves strips along coarser edges only, which their edges'
+	// own levels bound (edge_eps_at()). A level-4 interior (factor 1, drawn as the centre
+	// alone) is no coarser than it looks against edges of 2 segments.
 	int finest = findMSB(int(BLOCK_CELLS) / int(finest_edge));
 	if (d == finest + 1 && finest <= 2 && strips_bounded()) {
 		ivec2 bl = ivec2(lo) / int(BLOCK_CELLS);
-		const vec2 inward[4] = vec2[4](vec2(1.0, 0.0), vec2(0.0, 1.0), vec2(-1.0, 0.0), vec2(0.0, -1.0));
-		for (uint k = 0u; k < 4u && d > finest; k++) {
-			if (edges[k] != finest_edge)
-				continue;
-			float e = strip_fine_at(it.layer, bl, k, finest);
-			ivec3 q = edge_points(k);
-			vec2 a, b;
-			block_edge(bl, side_of_edge(k), a, b);
-			float band = band_allowed(it, a, b, float(1 << d) * inward[k], false, h);
-			if (e > min(min(min(at[q.x], at[q.y]), min(at[q.z], at[4])), band)) // a fan reaches the centre
+		for (uint k = 0u; k < 4u && d > finest; k++)
+			if (edges[k] == finest_edge && strip_fine_at(it.layer, bl, k, finest) > allowed)
 				d = finest;
-		}
 	}
 	// An interior of factor 1 against a finer edge is drawn by the tessellator as its
 	// centre alone (inner factor 1 rounds up to 2): with morphing that centre takes the

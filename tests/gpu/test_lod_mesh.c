@@ -251,8 +251,9 @@ static void test_mesh_finer_border(void **state)
  * land) looking 3.8 degrees down across 23 km, tau 2. A block edge's factor was measured at the
  * edge alone, but its coarse-edge strip's triangles reach half a block into the block, here
  * towards the camera: one was 2.0027 px off (1.0014 tau). The edge is now measured across
- * the band its strips can reach too (band_allowed(), terrain_factors.glsl). Negative
- * control, run when this was added: the previous terrain_factors.glsl fails here. */
+ * the band its strips can reach too (band_allowed(), terrain_factors.glsl; since the
+ * forty-ninth session the room over that band as a box, allowed_box()). Negative control,
+ * run when this was added: the previous terrain_factors.glsl fails here. */
 static void test_mesh_strip_band(void **state)
 {
 	struct relief_dem dem = coast_dem(1025, 0);
