@@ -97,12 +97,12 @@ struct relief_mat4 relief_view_projection(const struct relief_view *v, struct re
 /* relief_view_segment_px() with the view-projection (for p relative to its origin) and the
  * viewport given: for measuring many points of one view. */
 double relief_segment_px(const struct relief_mat4 *vp, uint32_t width, uint32_t height, struct relief_vec3 p, double e);
-/* The fine LOD's room over a box (docs/lod.md, "Fine LOD"; the shaders' allowed_box() in
- * terrain_factors.glsl, of which this is the reference): the largest vertical error e such
- * that a vertical segment of length e, up or down, from any point of the box (the convex
- * hull of the points c[0..3] and of the same points dh >= 0 higher; positions relative to
- * vp's origin) projects to at most tau pixels on a width x height viewport. 0 where the
- * box reaches the camera's plane (w <= 1e-6). */
+/* The fine LOD's room over a box (docs/lod.md, "The room over a box"; the shaders'
+ * allowed_box() in terrain_factors.glsl, of which this is the reference): the largest
+ * vertical error e such that a vertical segment of length e, up or down, from any point of
+ * the box (the convex hull of the points c[0..3] and of the same points dh >= 0 higher;
+ * positions relative to vp's origin) projects to at most tau pixels on a width x height
+ * viewport. 0 where the box reaches the camera's plane (w <= 1e-6). */
 double relief_box_allowed_error(const struct relief_mat4 *vp, uint32_t width, uint32_t height, double tau,
                                 const struct relief_vec3 c[4], double dh);
 /* Signed vertical distance from p to a level's decoded surface, the nearer of the two cell

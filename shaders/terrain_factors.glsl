@@ -78,18 +78,18 @@ vec3 sample_pos(Instance it, ivec2 m) { return pos_of(it, m, sample_height(it, m
 // space.
 vec4 sample_clip(Instance it, vec2 m, float h) { return clip_of(pos_of(it, ivec2(m), h)); }
 
-// The error allowed over a box (docs/lod.md, "Fine LOD"). A vertical segment of length e
-// with ends c1 and c2 = c1 + e z in clip space (z = vp[2], the image of a metre up) is
-// e |D(c1)| / (c1.w c2.w) pixels long on the viewport, where D(c) = viewport / 2 *
+// The error allowed over a box (docs/lod.md, "The room over a box"). A vertical segment of
+// length e with ends c1 and c2 = c1 + e z in clip space (z = vp[2], the image of a metre
+// up) is e |D(c1)| / (c1.w c2.w) pixels long on the viewport, where D(c) = viewport / 2 *
 // (c.xy z.w - z.xy c.w); D(c2) = D(c1). So with K = |D| and w = c.w at its drawn end c1,
 // and c2.w >= w - e |z.w|, its image is at most e (K / w^2) w / (w - e |z.w|). The drawn
 // end of every error segment of a block lies in the block's box (each drawn point
 // interpolates the block's samples, which its height range holds), so a bound on K / w^2
 // and a least w over the box bound every segment's image there (allowed_box()): a level
-// whose error is within that is within tau at every point of the box, not only at
-// measuring points. Until the forty-ninth December 2026 session the segment was projected
-// at ten points of a block and at nine along an edge, and test_lod_sweep found a frame
-// whose triangle broke tau between them (1.0014 tau).
+// whose error is within that is within tau at every point of the box, not only at measuring
+// points. Until the forty-ninth December 2026 session the segment was projected at ten
+// points of a block and at nine along an edge, and test_lod_sweep found a frame whose
+// triangle broke tau between them (1.0014 tau).
 
 // A point's part of a box's measure: (K, the least w over the heights from the point's
 // own to dh above it). D does not change with height; w changes by dh z.w.

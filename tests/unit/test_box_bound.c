@@ -1,15 +1,15 @@
-/* relief_box_allowed_error(), the fine LOD's room over a box (docs/lod.md, "Fine LOD"; the
- * shaders' allowed_box(), whose reference it is): a vertical segment of that length, up or
- * down, from any point of the box projects to at most tau pixels. Checked at random points
- * of random boxes seen by random cameras (low and high, level, looking down and up, wide
- * and narrow), corners and edges included; exact for a box that is a point; exact to 0.1 %
- * for a box straight ahead of a level camera, where bounding K and w apart would be twenty
- * times too strict. The negative control is built in: the least room at nine points of
- * each box (its corners, edge middles and centre, at both heights), what the factor pass
- * measured until December 2026, breaks tau at some points of some of the same boxes (5 of
- * 2,208, up to 1.08 tau), so the check tells a bound from a sample. The GPU's twin is
- * held to the same bound by the mesh tests (test_lod_mesh, test_lod_sweep: every triangle
- * within tau). */
+/* relief_box_allowed_error(), the fine LOD's room over a box (docs/lod.md, "The room over a
+ * box"; the shaders' allowed_box(), whose reference it is): a vertical segment of that
+ * length, up or down, from any point of the box projects to at most tau pixels. Checked at
+ * random points of random boxes seen by random cameras (low and high, level, looking down
+ * and up, wide and narrow), corners and edges included; exact for a box that is a point;
+ * exact to 0.1 % for a box straight ahead of a level camera, where bounding K and w apart
+ * would be twenty times too strict. The negative control is built in: the least room at
+ * nine points of each box (its corners, edge middles and centre, at both heights), the kind
+ * of measure the factor pass took until the forty-ninth December 2026 session, breaks tau
+ * at some points of some of the same boxes (5 of 2,208, up to 1.08 tau), so the check tells
+ * a bound from a sample. The GPU's twin is held to the same bound by the mesh tests
+ * (test_lod_mesh, test_lod_sweep: every triangle within tau). */
 #include <math.h>
 #include <stdbool.h>
 #include <setjmp.h>
