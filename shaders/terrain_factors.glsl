@@ -274,7 +274,7 @@ float edge_factor(Instance it, vec2 a, vec2 b, vec4 eps, vec2 range, out uint mo
 			break;
 		failed = allowed;
 	}
-	morph = d < 4 ? morph_byte(eps, d, failed) : MORPH_FULL;
+	morph = morph_byte(eps, d, failed); // MORPH_FULL where level 4 passed (failed unset)
 	return float(BLOCK_CELLS >> uint(d));
 }
 
